@@ -1,0 +1,168 @@
+// Benchmark of the core pipeline: median time per stage and per frame for 512x424 frames of each encoding,
+// 1 and 2 threads, next to a memcpy of the same frame measured in the same run, and their ratio.
+// Also counts heap allocations per frame in steady state (global operator new is counted here).
+//
+//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--markdown]
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/synthetic.h"
+
+namespace
+{
+std::atomic<long> g_allocations{0};
+}
+
+void* operator new(std::size_t n)
+{
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(n ? n : 1))
+    return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+using namespace kinect_pipeline;
+using Clock = std::chrono::steady_clock;
+
+namespace
+{
+double median(std::vector<double> v)
+{
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0.0 : v[v.size() / 2];
+}
+
+double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
+
+// A lab-like scene: benches, a desk, a person-sized box, low clutter, a real ceiling at 2.6 m.
+Scene labScene()
+{
+  Scene s;
+  s.ceiling = 2.6;
+  s.boxes = {{2.0, 2.6, -1.8, -0.6, 0.0, 0.9}, {3.5, 4.2, 0.4, 1.6, 0.7, 0.78}, {3.5, 3.6, 0.4, 0.5, 0.0, 0.7},
+             {1.6, 1.9, 0.3, 0.6, 0.0, 1.75}, {1.2, 1.35, -0.2, 0.0, 0.0, 0.10}, {5.5, 5.8, -2.5, 2.5, 0.0, 2.6},
+             {2.8, 3.0, -0.4, -0.2, 0.0, 0.05}};
+  return s;
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  int frames = 300, kernel = 3;
+  std::string projection = "horizontal";
+  bool markdown = false;
+  for (int i = 1; i < argc; ++i)
+  {
+    const std::string a = argv[i];
+    if (a == "--frames" && i + 1 < argc)
+      frames = std::atoi(argv[++i]);
+    else if (a == "--kernel" && i + 1 < argc)
+      kernel = std::atoi(argv[++i]);
+    else if (a == "--projection" && i + 1 < argc)
+      projection = argv[++i];
+    else if (a == "--markdown")
+      markdown = true;
+    else
+    {
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--markdown]\n", argv[0]);
+      return a == "--help" || a == "-h" ? 0 : 2;
+    }
+  }
+
+  const Camera cam = Camera::fromFov(512, 424, 1.2322, 1.0472);
+  const double height = 1.1, pitch = 0.26;
+  Rendering rendering;
+  renderScene(cam, height, pitch, 0.0, labScene(), rendering);
+  cv::Mat metres = rendering.depth.clone();
+  addKinectNoise(metres, 1);
+
+  struct Row
+  {
+    std::string enc;
+    int threads;
+    double memcpy_ms, total, prepare, erode, classify, confidence;
+    double allocs;
+  };
+  std::vector<Row> rows;
+  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+  {
+    const cv::Mat frame = encodeDepth(metres, type, 12.0);
+    cv::Mat copy(frame.size(), frame.type());
+    const std::size_t bytes = frame.total() * frame.elemSize();
+    for (const int threads : {1, 2})
+    {
+      Config cfg;
+      cfg.sensor_height = height;
+      cfg.sensor_pitch = pitch;
+      cfg.open_kernel_size = kernel;
+      cfg.projection = projectionFromString(projection);
+      cfg.num_threads = threads;
+      Pipeline pipe(cam, cfg);
+      FrameResult res;
+      // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
+      for (int i = 0; i < 30; ++i)
+        pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
+      std::vector<double> tm, tt, tp, te, tc, tf;
+      long allocs = 0;
+      for (int i = 0; i < frames; ++i)
+      {
+        auto a = Clock::now();
+        std::memcpy(copy.data, frame.data, bytes);
+        auto b = Clock::now();
+        tm.push_back(ms(a, b));
+        const long before = g_allocations.load();
+        pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
+        allocs += g_allocations.load() - before;
+        tt.push_back(res.times.total);
+        tp.push_back(res.times.prepare);
+        te.push_back(res.times.erode);
+        tc.push_back(res.times.classify_scan);
+        tf.push_back(res.times.confidence);
+      }
+      rows.push_back({toString(type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32),
+                      threads, median(tm), median(tt), median(tp), median(te), median(tc), median(tf),
+                      static_cast<double>(allocs) / frames});
+    }
+  }
+
+  std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, opening %dx%d rect, %s projection, "
+              "pitch changing every frame\n",
+              frames, kernel, kernel, projection.c_str());
+  if (markdown)
+  {
+    std::printf("| encoding | threads | memcpy [ms] | prepare | erode | classify+scan | confidence | frame [ms] | "
+                "frame / memcpy | speed-up vs 1 thread | allocations / frame |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  }
+  else
+  {
+    std::printf("%-6s %3s %9s %8s %8s %9s %8s %9s %8s %8s %7s\n", "enc", "thr", "memcpy", "prepare", "erode",
+                "classify", "conf", "frame", "x memcpy", "speedup", "allocs");
+  }
+  for (std::size_t i = 0; i < rows.size(); ++i)
+  {
+    const Row& r = rows[i];
+    const double one = rows[i - (r.threads == 2 ? 1 : 0)].total;
+    const double speedup = one / r.total;
+    if (markdown)
+      std::printf("| %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.2f | %.1f |\n", r.enc.c_str(), r.threads,
+                  r.memcpy_ms, r.prepare, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, speedup,
+                  r.allocs);
+    else
+      std::printf("%-6s %3d %9.4f %8.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.2f %7.1f\n", r.enc.c_str(), r.threads, r.memcpy_ms,
+                  r.prepare, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, speedup, r.allocs);
+  }
+  std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run)\n");
+  return 0;
+}

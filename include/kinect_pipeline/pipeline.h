@@ -1,0 +1,115 @@
+/**
+ * @file pipeline.h
+ * @brief One depth frame in, a cleaned depth image, per-pixel labels and a laser scan out.
+ */
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/encoding.h"
+#include "kinect_pipeline/plane_model.h"
+#include "kinect_pipeline/scan.h"
+#include "kinect_pipeline/threshold_curve.h"
+
+namespace kinect_pipeline
+{
+
+/** Per-pixel labels of FrameResult::labels. */
+enum Label : std::uint8_t
+{
+  kKept = 0,          ///< an obstacle (or person) between the floor and the ceiling plane
+  kInvalid = 1,       ///< no depth (after the opening filled what it could)
+  kFloor = 2,         ///< within t(d) of the predicted floor
+  kAboveCeiling = 3,  ///< beyond the predicted ceiling plane
+  kBelowFloor = 4,    ///< more than t(d) beyond the floor: a hole, a stair down
+};
+constexpr int kNumLabels = 5;
+
+/** Wall-clock time of each stage of the last frame [ms]. */
+struct StageTimes
+{
+  double prepare = 0.0;         ///< input checks, plane and scan terms
+  double erode = 0.0;           ///< unknown -> no return, then the opening's erosion
+  double classify_scan = 0.0;   ///< the fused loop: dilation, plane removal, labels, beam binning
+  double confidence = 0.0;      ///< bin reduction, range limits, rolling confidence
+  double total = 0.0;
+};
+
+/** What one frame gives. Reused between frames: no allocation when sizes do not change. */
+struct FrameResult
+{
+  cv::Mat depth;   ///< cleaned depth, the input's type; removed pixels: 255 (8-bit), 0 (16UC1), NaN (32FC1)
+  cv::Mat labels;  ///< CV_8UC1, see Label
+  ScanData scan;
+  std::array<std::uint64_t, kNumLabels> counts{};  ///< pixels per label
+  StageTimes times;
+};
+
+/**
+ * The per-frame processing of thesis section 4.4.1, with exact geometry by default.
+ *
+ * Not thread-safe: one frame at a time per instance (the frame itself is split over OpenMP threads).
+ * Keeps the beams' confidence history between frames.
+ */
+class Pipeline
+{
+public:
+  /** @throw std::invalid_argument if the camera or config is invalid. */
+  Pipeline(const Camera& camera, const Config& config);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  /** @brief Replaces the config (validated first; on error nothing changes). */
+  void setConfig(const Config& config);
+  /** @brief Replaces the camera model (validated first; on error nothing changes). */
+  void setCamera(const Camera& camera);
+  const Config& config() const { return config_; }
+  const Camera& camera() const { return camera_; }
+
+  /**
+   * @brief Processes one frame.
+   * @param depth CV_8UC1 (normalised, max_depth), CV_16UC1 (mm) or CV_32FC1 (m); its size must match the
+   *        camera; any row step
+   * @param base_pitch base pitch added to sensor_pitch [rad], + looks down
+   * @param base_roll base roll added to sensor_roll [rad], + right side down
+   * @param out result; its buffers are reused
+   * @throw std::invalid_argument for another type, an empty image, a size that disagrees with the camera,
+   *        or a non-finite pose; nothing is changed then.
+   */
+  void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out);
+
+  /** @brief Forgets the confidence history. */
+  void reset();
+
+  /** @return the plane model as of the last frame (for tests and debug images). */
+  const PlaneModel& planes() const { return planes_; }
+  /** @return the scan projector as of the last frame. */
+  const ScanProjector& projector() const { return projector_; }
+
+private:
+  struct Scratch;
+  template <typename T>
+  void run(const cv::Mat& depth, FrameResult& out);
+  void prepareBuffers(int threads);
+
+  Camera camera_;
+  Config config_;
+  PlaneModel planes_;
+  ScanProjector projector_;
+  Confidence confidence_;
+  ThresholdLut lut_;
+  Encoding lut_encoding_ = Encoding::kMono8;
+  bool lut_valid_ = false;
+  cv::Mat eroded_, mapped_, opened_;
+  std::vector<std::unique_ptr<Scratch>> scratch_;
+};
+
+}  // namespace kinect_pipeline

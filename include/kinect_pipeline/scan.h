@@ -1,0 +1,133 @@
+/**
+ * @file scan.h
+ * @brief Projection of kept pixels into uniform angle bins, and the laser scan they make.
+ */
+#pragma once
+
+#include <cmath>
+#include <vector>
+
+#include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/config.h"
+
+namespace kinect_pipeline
+{
+
+/** A laser scan in the LaserScan message's terms (REP 117 ranges, REP 103 angles). */
+struct ScanData
+{
+  float angle_min = 0.0f;        ///< angle of the first beam [rad], counter-clockwise from forward
+  float angle_max = 0.0f;        ///< angle of the last beam [rad]
+  float angle_increment = 0.0f;  ///< [rad], > 0
+  float range_min = 0.0f;        ///< [m]
+  float range_max = 0.0f;        ///< [m]
+  std::vector<float> ranges;       ///< [m]; +Inf no return, -Inf closer than range_min, NaN no data / filtered
+  std::vector<float> intensities;  ///< confidence in [0, 1] (see Confidence)
+};
+
+/** Branch-free atan2 (max error ~2e-6 rad) that the compiler can vectorise. */
+inline float fastAtan2(float y, float x)
+{
+  const float ax = x < 0.0f ? -x : x;
+  const float ay = y < 0.0f ? -y : y;
+  const float mx = ax > ay ? ax : ay;
+  const float mn = ax > ay ? ay : ax;
+  const float a = mn / (mx > 1e-30f ? mx : 1e-30f);
+  const float s = a * a;
+  // Minimax polynomial for atan on [0, 1].
+  float r = -0.0117212f;
+  r = r * s + 0.05265332f;
+  r = r * s - 0.11643287f;
+  r = r * s + 0.19354346f;
+  r = r * s - 0.33262347f;
+  r = r * s + 0.99997726f;
+  r *= a;
+  r = ay > ax ? 1.57079637f - r : r;
+  r = x < 0.0f ? 3.14159274f - r : r;
+  return y < 0.0f ? -r : r;
+}
+
+/**
+ * Maps pixels to beams. A pixel is a small patch, not a point: it covers the angles between its left and
+ * right edges, and its range goes into every bin it overlaps, so a surface that covers neighbouring pixels
+ * covers neighbouring bins and the binning leaves no bin empty, whatever the pitch.
+ *
+ * Horizontal projection: the ray of pixel (u, r) in the gravity-aligned frame is
+ * (X, Y) = (ax * xn + bx(r), ay * xn + by(r)) per metre of depth; its beam angle is atan2(Y, X) and its range
+ * z * hypot(X, Y). Column projection (thesis): angle -theta_x(u), range z / cos(theta_x).
+ */
+class ScanProjector
+{
+public:
+  /** @brief Sets beams and angle range from the camera and config (fixed until they change). */
+  void configure(const Camera& camera, const Config& config);
+  /** @brief Sets the per-row terms for this frame's pose (O(rows)). */
+  void setPose(double pitch, double roll);
+
+  int beams() const { return beams_; }
+  float angleMin() const { return angle_min_; }
+  float angleMax() const { return angle_max_; }
+  float angleIncrement() const { return inc_; }
+  Projection projection() const { return projection_; }
+
+  /**
+   * @brief Fractional bin positions of the W + 1 column edges of row r (edge e lies at column e - 0.5;
+   *        bin b covers positions [b, b + 1)).
+   * @param buffer W + 1 floats the horizontal projection writes to
+   * @return @p buffer, or the fixed per-column table of the column projection
+   */
+  const float* rowEdgeBins(int r, float* buffer) const;
+  /** @brief range[u] = depth[u] * rangeFactor(u, r) for a whole row (+Inf depth stays +Inf). */
+  void rowRanges(int r, const float* depth, float* range) const;
+  /** @return range per metre of depth of pixel (u, r). */
+  float rangeFactor(int u, int r) const
+  {
+    if (projection_ == Projection::kColumn)
+      return col_factor_[u];
+    const float x = ax_ * xn_[u] + bx_[r];
+    const float y = ay_ * xn_[u] + by_[r];
+    return std::sqrt(x * x + y * y);
+  }
+  /**
+   * @brief The range [lo, hi] of fractional bin positions any pixel of the image covers at this pose;
+   *        bins outside it have no data (NaN), bins inside with no kept pixel no return (+Inf).
+   */
+  void coverage(float& lo, float& hi) const;
+
+private:
+  Projection projection_ = Projection::kHorizontal;
+  int width_ = 0, height_ = 0, beams_ = 0;
+  float angle_min_ = 0.0f, angle_max_ = 0.0f, inc_ = 1.0f, lo_ = 0.0f;
+  std::vector<float> xn_, xe_;                    // per column centre / edge
+  std::vector<float> yn_;                         // per row
+  std::vector<float> col_edge_bins_, col_factor_;  // column projection
+  float ax_ = 0.0f, ay_ = 0.0f;
+  std::vector<float> bx_, by_;                    // horizontal projection, per row
+};
+
+/**
+ * Confidence of each beam (thesis eq 4.23 with its absolute value):
+ * intensity = clamp(1 - |d - mean| / confidence_distance, 0, 1), mean over the finite ranges among the
+ * beam's last N (this one included). A beam whose window holds no other finite range (it just appeared out
+ * of +Inf) gets intensity 1: a new obstacle is reported at once rather than held back for N frames.
+ * +Inf and -Inf beams get 1, NaN beams 0. With intensity_filter, finite beams at or below min_intensity
+ * become NaN (the rule of laser_filters' LaserScanIntensityFilter); the window keeps the unfiltered range.
+ */
+class Confidence
+{
+public:
+  /** @brief Sizes the windows; clears the history if the beam count or window changed. */
+  void configure(int beams, const Config& config);
+  /** @brief Forgets all history. */
+  void reset();
+  /** @brief Pushes this frame's ranges and writes intensities; NaNs filtered beams if enabled. */
+  void apply(std::vector<float>& ranges, std::vector<float>& intensities);
+
+private:
+  int beams_ = 0, window_ = 1, head_ = 0, filled_ = 0;
+  float distance_ = 1.0f, min_intensity_ = 0.0f;
+  bool filter_ = false;
+  std::vector<float> history_;  // window_ x beams_, NaN = not finite
+};
+
+}  // namespace kinect_pipeline

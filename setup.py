@@ -1,0 +1,5 @@
+# Used by catkin_python_setup() only (catkin puts devel/lib/python3/dist-packages on PYTHONPATH).
+from catkin_pkg.python_setup import generate_distutils_setup
+from setuptools import setup
+
+setup(**generate_distutils_setup(packages=["kinect_pipeline"], package_dir={"": "src"}))

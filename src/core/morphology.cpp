@@ -1,0 +1,140 @@
+#include "kinect_pipeline/morphology.h"
+
+#include <algorithm>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "kinect_pipeline/encoding.h"
+
+namespace kinect_pipeline
+{
+namespace detail
+{
+namespace
+{
+template <bool kMin, typename T>
+inline T pick(T a, T b)
+{
+  if constexpr (kMin)
+    return b < a ? b : a;
+  else
+    return b > a ? b : a;
+}
+
+// Horizontal pass: the window is clamped at the image edges, which for min/max equals OpenCV's default
+// border (a value that never wins).
+template <typename T, bool kMin>
+void horizontal(const T* tmp, int w, int rad, T* dst)
+{
+  if (rad == 1 && w >= 3)
+  {
+    dst[0] = pick<kMin>(tmp[0], tmp[1]);
+    for (int u = 1; u < w - 1; ++u)
+      dst[u] = pick<kMin>(pick<kMin>(tmp[u - 1], tmp[u]), tmp[u + 1]);
+    dst[w - 1] = pick<kMin>(tmp[w - 2], tmp[w - 1]);
+    return;
+  }
+  for (int u = 0; u < w; ++u)
+  {
+    const int a = std::max(0, u - rad), b = std::min(w - 1, u + rad);
+    T m = tmp[a];
+    for (int k = a + 1; k <= b; ++k)
+      m = pick<kMin>(m, tmp[k]);
+    dst[u] = m;
+  }
+}
+}  // namespace
+
+template <typename T, bool kMin>
+void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+{
+  const int w = src.cols;
+  const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
+  const T* first = src.ptr<T>(lo);
+  std::copy(first, first + w, tmp);
+  for (int j = lo + 1; j <= hi; ++j)
+  {
+    const T* row = src.ptr<T>(j);
+    for (int u = 0; u < w; ++u)
+      tmp[u] = pick<kMin>(tmp[u], row[u]);
+  }
+  horizontal<T, kMin>(tmp, w, rad, dst);
+}
+
+template <typename T>
+void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+{
+  using Tr = DepthTraits<T>;
+  const int w = src.cols;
+  const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
+  const T* first = src.ptr<T>(lo);
+  for (int u = 0; u < w; ++u)
+    tmp[u] = Tr::map(first[u]);
+  for (int j = lo + 1; j <= hi; ++j)
+  {
+    const T* row = src.ptr<T>(j);
+    for (int u = 0; u < w; ++u)
+      tmp[u] = pick<true>(tmp[u], Tr::map(row[u]));
+  }
+  horizontal<T, true>(tmp, w, rad, dst);
+}
+
+#define KP_INSTANTIATE(T)                                                       \
+  template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*);             \
+  template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*);            \
+  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*);
+KP_INSTANTIATE(std::uint8_t)
+KP_INSTANTIATE(std::uint16_t)
+KP_INSTANTIATE(float)
+#undef KP_INSTANTIATE
+}  // namespace detail
+
+namespace
+{
+template <typename T>
+void openRect(const cv::Mat& src, cv::Mat& dst, int rad, cv::Mat& scratch)
+{
+  scratch.create(src.size(), src.type());
+  dst.create(src.size(), src.type());
+  std::vector<T> tmp(src.cols);
+  for (int r = 0; r < src.rows; ++r)
+    detail::rectRow<T, true>(src, r, rad, tmp.data(), scratch.ptr<T>(r));
+  for (int r = 0; r < src.rows; ++r)
+    detail::rectRow<T, false>(scratch, r, rad, tmp.data(), dst.ptr<T>(r));
+}
+}  // namespace
+
+void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, cv::Mat& scratch)
+{
+  if (ksize < 3 || ksize % 2 == 0)
+  {
+    std::ostringstream s;
+    s << "morphOpen: kernel size " << ksize << ": expected an odd size >= 3";
+    throw std::invalid_argument(s.str());
+  }
+  if (src.data == dst.data)
+    throw std::invalid_argument("morphOpen: dst must not alias src");
+  if (shape != KernelShape::kRect)
+  {
+    const int cv_shape = shape == KernelShape::kCross ? cv::MORPH_CROSS : cv::MORPH_ELLIPSE;
+    cv::morphologyEx(src, dst, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(ksize, ksize)));
+    return;
+  }
+  switch (src.type())
+  {
+    case CV_8UC1:
+      return openRect<std::uint8_t>(src, dst, ksize / 2, scratch);
+    case CV_16UC1:
+      return openRect<std::uint16_t>(src, dst, ksize / 2, scratch);
+    case CV_32FC1:
+      return openRect<float>(src, dst, ksize / 2, scratch);
+    default:
+      throw std::invalid_argument("morphOpen: image type " + cv::typeToString(src.type()) +
+                                  ": expected 8UC1, 16UC1 or 32FC1");
+  }
+}
+
+}  // namespace kinect_pipeline

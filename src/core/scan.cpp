@@ -1,0 +1,190 @@
+#include "kinect_pipeline/scan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace kinect_pipeline
+{
+
+void ScanProjector::configure(const Camera& camera, const Config& config)
+{
+  projection_ = config.projection;
+  width_ = camera.width;
+  height_ = camera.height;
+  xn_.resize(width_);
+  xe_.resize(width_ + 1);
+  yn_.resize(height_);
+  for (int u = 0; u < width_; ++u)
+    xn_[u] = static_cast<float>((u - camera.cx) / camera.fx);
+  for (int e = 0; e <= width_; ++e)
+    xe_[e] = static_cast<float>((e - 0.5 - camera.cx) / camera.fx);
+  for (int r = 0; r < height_; ++r)
+    yn_[r] = static_cast<float>((r - camera.cy) / camera.fy);
+
+  // Beam angle of each column edge in the column model: -theta_x (counter-clockwise from forward).
+  const bool thesis_columns = projection_ == Projection::kColumn && config.geometry == Geometry::kThesis;
+  const double hfov = camera.hfov();
+  std::vector<double> edge_angle(width_ + 1);
+  for (int e = 0; e <= width_; ++e)
+    edge_angle[e] = thesis_columns ? -((e - 0.5) - 0.5 * width_) / width_ * hfov
+                                   : -std::atan((e - 0.5 - camera.cx) / camera.fx);
+
+  double lo = edge_angle[width_], hi = edge_angle[0];
+  if (config.scan_fov > 0.0)
+  {
+    lo = -0.5 * config.scan_fov;
+    hi = 0.5 * config.scan_fov;
+  }
+  beams_ = config.scan_beams > 0 ? config.scan_beams : width_;
+  const double inc = (hi - lo) / beams_;
+  inc_ = static_cast<float>(inc);
+  lo_ = static_cast<float>(lo);
+  angle_min_ = static_cast<float>(lo + 0.5 * inc);
+  angle_max_ = static_cast<float>(hi - 0.5 * inc);
+
+  col_edge_bins_.resize(width_ + 1);
+  col_factor_.resize(width_);
+  for (int e = 0; e <= width_; ++e)
+    col_edge_bins_[e] = static_cast<float>((edge_angle[e] - lo) / inc);
+  for (int u = 0; u < width_; ++u)
+  {
+    const double theta_x = thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan(xn_[u]);
+    col_factor_[u] = static_cast<float>(1.0 / std::cos(theta_x));
+  }
+  bx_.assign(height_, 1.0f);
+  by_.assign(height_, 0.0f);
+}
+
+void ScanProjector::setPose(double pitch, double roll)
+{
+  if (projection_ == Projection::kColumn)
+    return;
+  // The ray (1, -xn, -yn) of the sensor frame rotated by roll about x, then pitch about y (see PlaneModel).
+  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+  ax_ = static_cast<float>(-sp * sr);
+  ay_ = static_cast<float>(-cr);
+  for (int r = 0; r < height_; ++r)
+  {
+    bx_[r] = static_cast<float>(cp - sp * cr * yn_[r]);
+    by_[r] = static_cast<float>(sr * yn_[r]);
+  }
+}
+
+const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
+{
+  if (projection_ == Projection::kColumn)
+    return col_edge_bins_.data();
+  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r], lo = lo_, inv = 1.0f / inc_;
+  const float* __restrict xe = xe_.data();
+  float* __restrict out = buffer;
+  const int n = width_ + 1;
+  for (int e = 0; e < n; ++e)
+    out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
+  return buffer;
+}
+
+void ScanProjector::rowRanges(int r, const float* depth, float* range) const
+{
+  const int w = width_;
+  if (projection_ == Projection::kColumn)
+  {
+    const float* k = col_factor_.data();
+    for (int u = 0; u < w; ++u)
+      range[u] = depth[u] * k[u];
+    return;
+  }
+  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
+  const float* xn = xn_.data();
+  for (int u = 0; u < w; ++u)
+  {
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    range[u] = depth[u] * std::sqrt(x * x + y * y);
+  }
+}
+
+void ScanProjector::coverage(float& lo, float& hi) const
+{
+  if (projection_ == Projection::kColumn)
+  {
+    lo = std::min(col_edge_bins_.front(), col_edge_bins_.back());
+    hi = std::max(col_edge_bins_.front(), col_edge_bins_.back());
+    return;
+  }
+  lo = std::numeric_limits<float>::infinity();
+  hi = -lo;
+  const float inv = 1.0f / inc_;
+  for (int r = 0; r < height_; ++r)
+  {
+    for (const float x : {xe_.front(), xe_.back()})
+    {
+      const float f = (fastAtan2(ay_ * x + by_[r], ax_ * x + bx_[r]) - lo_) * inv;
+      lo = std::min(lo, f);
+      hi = std::max(hi, f);
+    }
+  }
+}
+
+void Confidence::configure(int beams, const Config& config)
+{
+  const int window = config.confidence_window;
+  if (beams != beams_ || window != window_)
+  {
+    beams_ = beams;
+    window_ = window;
+    history_.assign(static_cast<std::size_t>(beams_) * window_, std::numeric_limits<float>::quiet_NaN());
+    head_ = 0;
+  }
+  distance_ = static_cast<float>(config.confidence_distance);
+  min_intensity_ = static_cast<float>(config.min_intensity);
+  filter_ = config.intensity_filter;
+}
+
+void Confidence::reset()
+{
+  std::fill(history_.begin(), history_.end(), std::numeric_limits<float>::quiet_NaN());
+  head_ = 0;
+}
+
+void Confidence::apply(std::vector<float>& ranges, std::vector<float>& intensities)
+{
+  intensities.resize(ranges.size());
+  float* slot = history_.data() + static_cast<std::size_t>(head_) * beams_;
+  for (int b = 0; b < beams_; ++b)
+    slot[b] = std::isfinite(ranges[b]) ? ranges[b] : std::numeric_limits<float>::quiet_NaN();
+  head_ = (head_ + 1) % window_;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int b = 0; b < beams_; ++b)
+  {
+    const float d = ranges[b];
+    if (std::isnan(d))
+    {
+      intensities[b] = 0.0f;
+      continue;
+    }
+    if (std::isinf(d))
+    {
+      intensities[b] = 1.0f;
+      continue;
+    }
+    float sum = 0.0f;
+    int n = 0;
+    for (int k = 0; k < window_; ++k)
+    {
+      const float h = history_[static_cast<std::size_t>(k) * beams_ + b];
+      if (!std::isnan(h))
+      {
+        sum += h;
+        ++n;
+      }
+    }
+    const float mean = sum / n;  // n >= 1: this frame's finite range is in the window
+    float i = 1.0f - std::fabs(d - mean) / distance_;
+    i = std::min(1.0f, std::max(0.0f, i));
+    intensities[b] = i;
+    if (filter_ && i <= min_intensity_)
+      ranges[b] = nan;
+  }
+}
+
+}  // namespace kinect_pipeline

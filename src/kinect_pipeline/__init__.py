@@ -1,0 +1,54 @@
+"""kinect_pipeline: depth frames -> floor/ceiling-free depth image and a LaserScan, on a pitching base.
+
+The math lives in the C++ core (``kinect_pipeline._core``); this package re-exports it and adds tools.
+
+>>> import kinect_pipeline as kp
+>>> cam = kp.Camera.from_fov(512, 424, 1.232, 1.047)
+>>> pipe = kp.Pipeline(cam, kp.Config(sensor_height=1.1, sensor_pitch=0.26))
+"""
+
+from __future__ import annotations
+
+from ._core import (
+    Camera,
+    Config,
+    Pipeline,
+    Result,
+    add_kinect_noise,
+    default_threshold_curve,
+    encode_depth,
+    evaluate_curve,
+    morph_open,
+    render_scene,
+    threshold_lut,
+)
+
+#: Values of ``Result.labels``.
+LABELS: dict[str, int] = {"kept": 0, "invalid": 1, "floor": 2, "above_ceiling": 3, "below_floor": 4}
+
+#: Kinect v2 depth camera (512x424, 70.6 x 60 deg, as in the thesis).
+KINECT_V2_HFOV = 1.2322
+KINECT_V2_VFOV = 1.0472
+
+__all__ = [
+    "Camera",
+    "Config",
+    "Pipeline",
+    "Result",
+    "LABELS",
+    "KINECT_V2_HFOV",
+    "KINECT_V2_VFOV",
+    "add_kinect_noise",
+    "default_threshold_curve",
+    "encode_depth",
+    "evaluate_curve",
+    "kinect_v2_camera",
+    "morph_open",
+    "render_scene",
+    "threshold_lut",
+]
+
+
+def kinect_v2_camera() -> Camera:
+    """The thesis's Kinect v2 model: 512x424 pixels, 70.6 x 60 degrees."""
+    return Camera.from_fov(512, 424, KINECT_V2_HFOV, KINECT_V2_VFOV)

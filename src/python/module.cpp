@@ -1,0 +1,422 @@
+// pybind11 binding of the ROS-free core: kinect_pipeline._core.
+#include <cstring>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/morphology.h"
+#include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/threshold_curve.h"
+
+namespace py = pybind11;
+using namespace kinect_pipeline;
+
+namespace
+{
+
+int cvTypeOf(const py::dtype& dt)
+{
+  if (dt.is(py::dtype::of<std::uint8_t>()))
+    return CV_8UC1;
+  if (dt.is(py::dtype::of<std::uint16_t>()))
+    return CV_16UC1;
+  if (dt.is(py::dtype::of<float>()))
+    return CV_32FC1;
+  return -1;
+}
+
+/** A 2-D numpy array as a cv::Mat. Zero-copy when rows are positive-strided and pixels adjacent;
+ *  otherwise a C-contiguous copy is made (kept alive in @p keep). */
+cv::Mat asMat(const py::handle& obj, const char* what, py::object& keep, int* cv_type = nullptr)
+{
+  if (!py::isinstance<py::array>(obj))
+    throw py::type_error(std::string(what) + ": expected a numpy array, got " +
+                         std::string(py::str(py::type::handle_of(obj).attr("__name__"))));
+  py::array arr = py::reinterpret_borrow<py::array>(obj);
+  const int type = cvTypeOf(arr.dtype());
+  if (type < 0)
+    throw py::type_error(std::string(what) + ": dtype " + std::string(py::str(arr.dtype())) +
+                         ": expected uint8 (normalised), uint16 (mm) or float32 (m)");
+  if (arr.ndim() != 2)
+  {
+    std::ostringstream s;
+    s << what << ": " << arr.ndim() << "-D array: expected a 2-D (height, width) depth image";
+    throw py::value_error(s.str());
+  }
+  if (arr.shape(0) == 0 || arr.shape(1) == 0)
+  {
+    std::ostringstream s;
+    s << what << ": empty array of shape (" << arr.shape(0) << ", " << arr.shape(1) << ")";
+    throw py::value_error(s.str());
+  }
+  const auto item = static_cast<py::ssize_t>(arr.itemsize());
+  if (arr.strides(1) != item || arr.strides(0) < item * arr.shape(1))
+  {
+    arr = py::array::ensure(py::module_::import("numpy").attr("ascontiguousarray")(arr));
+  }
+  keep = arr;
+  if (cv_type)
+    *cv_type = type;
+  return cv::Mat(static_cast<int>(arr.shape(0)), static_cast<int>(arr.shape(1)), type,
+                 const_cast<void*>(arr.data()), static_cast<std::size_t>(arr.strides(0)));
+}
+
+py::array matToArray(const cv::Mat& m)
+{
+  py::dtype dt = m.type() == CV_8UC1 ? py::dtype::of<std::uint8_t>()
+                 : m.type() == CV_16UC1 ? py::dtype::of<std::uint16_t>()
+                 : m.type() == CV_16SC1 ? py::dtype::of<std::int16_t>()
+                                        : py::dtype::of<float>();
+  py::array out(dt, {m.rows, m.cols});
+  for (int r = 0; r < m.rows; ++r)
+    std::memcpy(static_cast<char*>(out.mutable_data(r, 0)), m.ptr(r), m.cols * m.elemSize());
+  return out;
+}
+
+py::array_t<float> vecToArray(const std::vector<float>& v)
+{
+  py::array_t<float> a(static_cast<py::ssize_t>(v.size()));
+  std::copy(v.begin(), v.end(), a.mutable_data());
+  return a;
+}
+
+/** What process() returns; numpy arrays own their memory. */
+struct PyResult
+{
+  py::array depth, labels;
+  py::array_t<float> ranges, intensities;
+  float angle_min, angle_max, angle_increment, range_min, range_max;
+  py::dict counts, times;
+};
+
+struct PyPipeline
+{
+  PyPipeline(const Camera& c, const Config& cfg) : pipe(c, cfg) {}
+  Pipeline pipe;
+  FrameResult result;
+  std::mutex mutex;  // process() releases the GIL: one frame at a time per instance
+};
+
+const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
+
+void setConfigField(Config& c, const std::string& key, const py::handle& v)
+{
+  auto num = [&](double& field) { field = py::cast<double>(v); };
+  if (key == "sensor_height") num(c.sensor_height);
+  else if (key == "sensor_pitch") num(c.sensor_pitch);
+  else if (key == "sensor_roll") num(c.sensor_roll);
+  else if (key == "ceiling_height") num(c.ceiling_height);
+  else if (key == "max_depth") num(c.max_depth);
+  else if (key == "geometry") c.geometry = geometryFromString(py::cast<std::string>(v));
+  else if (key == "projection") c.projection = projectionFromString(py::cast<std::string>(v));
+  else if (key == "open_kernel_size") c.open_kernel_size = py::cast<int>(v);
+  else if (key == "open_kernel_shape") c.open_kernel_shape = kernelShapeFromString(py::cast<std::string>(v));
+  else if (key == "threshold_curve")
+  {
+    if (py::isinstance<py::str>(v))
+      c.threshold_curve = parseThresholdCurve(py::cast<std::string>(v));
+    else
+    {
+      std::vector<CurvePoint> pts;
+      for (const auto& p : v)
+      {
+        auto pair = py::cast<std::pair<double, double>>(p);
+        pts.push_back({pair.first, pair.second});
+      }
+      validateThresholdCurve(pts);
+      c.threshold_curve = pts;
+    }
+  }
+  else if (key == "range_min") num(c.range_min);
+  else if (key == "range_max") num(c.range_max);
+  else if (key == "scan_beams") c.scan_beams = py::cast<int>(v);
+  else if (key == "scan_fov") num(c.scan_fov);
+  else if (key == "confidence_window") c.confidence_window = py::cast<int>(v);
+  else if (key == "confidence_distance") num(c.confidence_distance);
+  else if (key == "min_intensity") num(c.min_intensity);
+  else if (key == "intensity_filter") c.intensity_filter = py::cast<bool>(v);
+  else if (key == "num_threads") c.num_threads = py::cast<int>(v);
+  else
+    throw py::type_error("Config: unknown field '" + key + "'");
+}
+
+const char* kConfigFields[] = {"sensor_height", "sensor_pitch", "sensor_roll", "ceiling_height", "max_depth",
+                               "geometry", "projection", "open_kernel_size", "open_kernel_shape",
+                               "threshold_curve", "range_min", "range_max", "scan_beams", "scan_fov",
+                               "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
+                               "num_threads"};
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m)
+{
+  m.doc() = "ROS-free core of kinect_pipeline (C++/OpenMP). Use the kinect_pipeline package, not this module.";
+
+  py::class_<Camera>(m, "Camera", "Pinhole depth camera model [px] (optical frame: x right, y down, z forward).")
+      .def(py::init<int, int, double, double, double, double>(), py::arg("width"), py::arg("height"),
+           py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"))
+      .def_static("from_fov", &Camera::fromFov, py::arg("width"), py::arg("height"), py::arg("hfov"),
+                  py::arg("vfov"), "Camera from fields of view [rad], edge to edge; principal point in the centre.")
+      .def_readonly("width", &Camera::width)
+      .def_readonly("height", &Camera::height)
+      .def_readonly("fx", &Camera::fx)
+      .def_readonly("fy", &Camera::fy)
+      .def_readonly("cx", &Camera::cx)
+      .def_readonly("cy", &Camera::cy)
+      .def_property_readonly("hfov", &Camera::hfov)
+      .def_property_readonly("vfov", &Camera::vfov)
+      .def("__repr__", [](const Camera& c) { return "Camera(" + c.describe() + ")"; });
+
+  py::class_<Config>(m, "Config", "Pipeline parameters; field names are the ROS parameter names (SI units).")
+      .def(py::init([](const py::kwargs& kw) {
+             Config c;
+             for (const auto& item : kw)
+               setConfigField(c, py::cast<std::string>(item.first), item.second);
+             c.validate();
+             return c;
+           }))
+      .def_readwrite("sensor_height", &Config::sensor_height)
+      .def_readwrite("sensor_pitch", &Config::sensor_pitch)
+      .def_readwrite("sensor_roll", &Config::sensor_roll)
+      .def_readwrite("ceiling_height", &Config::ceiling_height)
+      .def_readwrite("max_depth", &Config::max_depth)
+      .def_property(
+          "geometry", [](const Config& c) { return toString(c.geometry); },
+          [](Config& c, const std::string& s) { c.geometry = geometryFromString(s); })
+      .def_property(
+          "projection", [](const Config& c) { return toString(c.projection); },
+          [](Config& c, const std::string& s) { c.projection = projectionFromString(s); })
+      .def_readwrite("open_kernel_size", &Config::open_kernel_size)
+      .def_property(
+          "open_kernel_shape", [](const Config& c) { return toString(c.open_kernel_shape); },
+          [](Config& c, const std::string& s) { c.open_kernel_shape = kernelShapeFromString(s); })
+      .def_property(
+          "threshold_curve",
+          [](const Config& c) {
+            std::vector<std::pair<double, double>> out;
+            for (const auto& p : c.threshold_curve)
+              out.emplace_back(p.depth, p.threshold);
+            return out;
+          },
+          [](Config& c, const py::object& v) { setConfigField(c, "threshold_curve", v); })
+      .def_property_readonly("threshold_curve_text", [](const Config& c) { return formatThresholdCurve(c.threshold_curve); })
+      .def_readwrite("range_min", &Config::range_min)
+      .def_readwrite("range_max", &Config::range_max)
+      .def_readwrite("scan_beams", &Config::scan_beams)
+      .def_readwrite("scan_fov", &Config::scan_fov)
+      .def_readwrite("confidence_window", &Config::confidence_window)
+      .def_readwrite("confidence_distance", &Config::confidence_distance)
+      .def_readwrite("min_intensity", &Config::min_intensity)
+      .def_readwrite("intensity_filter", &Config::intensity_filter)
+      .def_readwrite("num_threads", &Config::num_threads)
+      .def("validate", &Config::validate, "Raises ValueError naming the field, its value and the allowed range.")
+      .def("to_dict", [](const Config& c) {
+        py::dict d;
+        py::object self = py::cast(c);
+        for (const char* f : kConfigFields)
+          d[f] = self.attr(f);
+        d["threshold_curve"] = formatThresholdCurve(c.threshold_curve);
+        return d;
+      })
+      .def("__repr__", [](const Config& c) {
+        py::object self = py::cast(c);
+        std::string s = "Config(";
+        bool first = true;
+        for (const char* f : kConfigFields)
+        {
+          s += (first ? "" : ", ") + std::string(f) + "=" + std::string(py::repr(self.attr(f)));
+          first = false;
+        }
+        return s + ")";
+      });
+
+  py::class_<PyResult>(m, "Result", "One processed frame.")
+      .def_readonly("depth", &PyResult::depth, "cleaned depth, input dtype; removed: 255 / 0 / NaN")
+      .def_readonly("labels", &PyResult::labels,
+                    "uint8 per pixel: 0 kept, 1 invalid, 2 floor, 3 above ceiling plane, 4 below floor")
+      .def_readonly("ranges", &PyResult::ranges, "float32 [m]; +Inf no return, -Inf too close, NaN no data")
+      .def_readonly("intensities", &PyResult::intensities, "float32 confidence in [0, 1]")
+      .def_readonly("angle_min", &PyResult::angle_min)
+      .def_readonly("angle_max", &PyResult::angle_max)
+      .def_readonly("angle_increment", &PyResult::angle_increment)
+      .def_readonly("range_min", &PyResult::range_min)
+      .def_readonly("range_max", &PyResult::range_max)
+      .def_readonly("counts", &PyResult::counts, "pixels per label name")
+      .def_readonly("times", &PyResult::times, "wall-clock ms per stage");
+
+  py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
+      .def(py::init<const Camera&, const Config&>(), py::arg("camera"), py::arg("config"))
+      .def(
+          "process",
+          [](PyPipeline& self, const py::object& depth, double base_pitch, double base_roll) {
+            py::object keep;
+            cv::Mat in = asMat(depth, "depth", keep);
+            PyResult res;
+            // Outputs are fresh numpy arrays; the core writes straight into them.
+            py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
+            res.depth = py::array(dt, {in.rows, in.cols});
+            res.labels = py::array(py::dtype::of<std::uint8_t>(), {in.rows, in.cols});
+            {
+              py::gil_scoped_release release;
+              std::lock_guard<std::mutex> lock(self.mutex);
+              self.result.depth = cv::Mat(in.rows, in.cols, in.type(), res.depth.mutable_data());
+              self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, res.labels.mutable_data());
+              self.pipe.process(in, base_pitch, base_roll, self.result);
+            }
+            const FrameResult& fr = self.result;
+            if (fr.depth.data != res.depth.data())
+              throw std::logic_error("kinect_pipeline: output was reallocated");
+            res.ranges = vecToArray(fr.scan.ranges);
+            res.intensities = vecToArray(fr.scan.intensities);
+            res.angle_min = fr.scan.angle_min;
+            res.angle_max = fr.scan.angle_max;
+            res.angle_increment = fr.scan.angle_increment;
+            res.range_min = fr.scan.range_min;
+            res.range_max = fr.scan.range_max;
+            for (int k = 0; k < kNumLabels; ++k)
+              res.counts[kLabelNames[k]] = fr.counts[k];
+            res.times["prepare"] = fr.times.prepare;
+            res.times["erode"] = fr.times.erode;
+            res.times["classify_scan"] = fr.times.classify_scan;
+            res.times["confidence"] = fr.times.confidence;
+            res.times["total"] = fr.times.total;
+            return res;
+          },
+          py::arg("depth"), py::arg("base_pitch") = 0.0, py::arg("base_roll") = 0.0,
+          "Process one frame: depth is a 2-D uint8 (normalised), uint16 (mm) or float32 (m) array.")
+      .def("reset", [](PyPipeline& self) { self.pipe.reset(); }, "Forget the confidence history.")
+      .def_property(
+          "config", [](PyPipeline& self) { return self.pipe.config(); },
+          [](PyPipeline& self, const Config& c) {
+            std::lock_guard<std::mutex> lock(self.mutex);
+            self.pipe.setConfig(c);
+          })
+      .def_property_readonly("camera", [](PyPipeline& self) { return self.pipe.camera(); })
+      .def(
+          "predicted_floor",
+          [](PyPipeline& self) {
+            const PlaneModel& p = self.pipe.planes();
+            const Camera& c = self.pipe.camera();
+            py::array_t<double> out({c.height, c.width});
+            auto o = out.mutable_unchecked<2>();
+            for (int r = 0; r < c.height; ++r)
+              for (int u = 0; u < c.width; ++u)
+                o(r, u) = p.floorDepth(u, r);
+            return out;
+          },
+          "Predicted floor depth per pixel [m] (+Inf: the ray never meets it) at the last frame's pose.")
+      .def(
+          "predicted_ceiling",
+          [](PyPipeline& self) {
+            const PlaneModel& p = self.pipe.planes();
+            const Camera& c = self.pipe.camera();
+            py::array_t<double> out({c.height, c.width});
+            auto o = out.mutable_unchecked<2>();
+            for (int r = 0; r < c.height; ++r)
+              for (int u = 0; u < c.width; ++u)
+                o(r, u) = p.ceilingDepth(u, r);
+            return out;
+          },
+          "Predicted ceiling-plane depth per pixel [m] (+Inf: never met) at the last frame's pose.");
+
+  m.def(
+      "threshold_lut",
+      [](const py::object& curve, const std::string& encoding, double max_depth) {
+        Config c;
+        setConfigField(c, "threshold_curve", curve);
+        const Encoding e = encoding == "8UC1" ? Encoding::kMono8
+                           : encoding == "16UC1" ? Encoding::kMono16
+                           : encoding == "32FC1" ? Encoding::kFloat32
+                                                 : throw py::value_error("encoding '" + encoding + "': expected 8UC1, 16UC1 or 32FC1");
+        ThresholdLut lut;
+        lut.build(c.threshold_curve, e, max_depth);
+        return vecToArray(lut.table());
+      },
+      py::arg("curve"), py::arg("encoding"), py::arg("max_depth") = 12.0,
+      "The threshold lookup table the pipeline uses (8UC1: by value; others: by 1 cm cell).");
+  m.def(
+      "evaluate_curve",
+      [](const py::object& curve, double depth) {
+        Config c;
+        setConfigField(c, "threshold_curve", curve);
+        return evaluateCurve(c.threshold_curve, depth);
+      },
+      py::arg("curve"), py::arg("depth"), "t(depth) [m] by piecewise-linear interpolation.");
+  m.def("default_threshold_curve", []() { return formatThresholdCurve(defaultThresholdCurve()); });
+
+  m.def(
+      "render_scene",
+      [](const Camera& cam, double height, double pitch, double roll, const std::vector<std::array<double, 6>>& boxes,
+         const std::vector<std::array<double, 4>>& holes, double hole_depth, double ceiling, bool floor) {
+        Scene s;
+        s.floor = floor;
+        for (const auto& b : boxes)
+          s.boxes.push_back({b[0], b[1], b[2], b[3], b[4], b[5]});
+        for (const auto& h : holes)
+          s.holes.push_back({h[0], h[1], h[2], h[3], 0.0, 0.0});
+        s.hole_depth = hole_depth;
+        s.ceiling = ceiling;
+        Rendering r;
+        {
+          py::gil_scoped_release release;
+          renderScene(cam, height, pitch, roll, s, r);
+        }
+        py::dict d;
+        d["depth"] = matToArray(r.depth);
+        d["height"] = matToArray(r.height);
+        d["range"] = matToArray(r.range);
+        d["object"] = matToArray(r.object);
+        return d;
+      },
+      py::arg("camera"), py::arg("height"), py::arg("pitch"), py::arg("roll"),
+      py::arg("boxes") = std::vector<std::array<double, 6>>{}, py::arg("holes") = std::vector<std::array<double, 4>>{},
+      py::arg("hole_depth") = 0.5, py::arg("ceiling") = 0.0, py::arg("floor") = true,
+      "Ray-cast a scene (boxes (x0, x1, y0, y1, z0, z1) and hole footprints (x0, x1, y0, y1) in the gravity-aligned "
+      "frame on the floor under the sensor). Returns dict of depth [m, +Inf none], height [m], range [m], "
+      "object (-1 none, 0 floor, 1 ceiling, 2 hole, 10+i box i).");
+  m.def(
+      "add_kinect_noise",
+      [](py::array_t<float, py::array::c_style> depth, std::uint64_t seed, double sigma0, double k, double dropout) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth: expected a 2-D float32 array");
+        py::array_t<float> out({depth.shape(0), depth.shape(1)});
+        std::memcpy(out.mutable_data(), depth.data(), depth.nbytes());
+        cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
+        addKinectNoise(m, seed, sigma0, k, dropout);
+        return out;
+      },
+      py::arg("depth"), py::arg("seed"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019, py::arg("dropout") = 0.01,
+      "Copy of a float32 depth [m] with Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts (+Inf).");
+  m.def(
+      "encode_depth",
+      [](const py::object& metres, const std::string& encoding, double max_depth) {
+        py::object keep;
+        int type = 0;
+        cv::Mat m = asMat(metres, "metres", keep, &type);
+        if (type != CV_32FC1)
+          throw py::type_error("metres: expected a float32 array");
+        const int t = encoding == "8UC1" ? CV_8UC1 : encoding == "16UC1" ? CV_16UC1 : encoding == "32FC1" ? CV_32FC1 : -1;
+        if (t < 0)
+          throw py::value_error("encoding '" + encoding + "': expected 8UC1, 16UC1 or 32FC1");
+        return matToArray(encodeDepth(m, t, max_depth));
+      },
+      py::arg("metres"), py::arg("encoding"), py::arg("max_depth") = 12.0,
+      "Float metres -> 8UC1 normalised / 16UC1 mm / 32FC1 (unknown -> 0, NaN kept for float).");
+  m.def(
+      "morph_open",
+      [](const py::object& img, int ksize, const std::string& shape) {
+        py::object keep;
+        cv::Mat m = asMat(img, "image", keep);
+        cv::Mat out, scratch;
+        morphOpen(m, out, ksize, kernelShapeFromString(shape), scratch);
+        return matToArray(out);
+      },
+      py::arg("image"), py::arg("ksize"), py::arg("shape") = "rect", "The pipeline's morphological opening.");
+}
