@@ -62,7 +62,8 @@ struct DepthTraits<float>
   static constexpr float kNoReturn = std::numeric_limits<float>::infinity();
   // NaN fails both comparisons, so it maps to no-return as well.
   static float map(float v) { return (v > 0.0f && v < kNoReturn) ? v : kNoReturn; }
-  static bool isNoReturn(float v) { return !(v < kNoReturn); }
+  // FLT_MAX counts too: OpenCV's morphology pads float borders with FLT_MAX, not +Inf.
+  static bool isNoReturn(float v) { return !(v < std::numeric_limits<float>::max()); }
   static float removed() { return std::numeric_limits<float>::quiet_NaN(); }
 };
 

@@ -1,1 +1,96 @@
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+
+#include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/config.h"
+
+using namespace kinect_pipeline;
+
+namespace
+{
+// Expects std::invalid_argument whose message contains every one of the given words.
+template <typename F>
+void expectInvalid(F f, std::initializer_list<const char*> words)
+{
+  try
+  {
+    f();
+    FAIL() << "no exception";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    for (const char* w : words)
+      EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << "'" << w << "' not in: " << e.what();
+  }
+}
+}  // namespace
+
+TEST(Camera, FromFovRoundTrips)
+{
+  const double hfov = 70.6 * M_PI / 180.0, vfov = 60.0 * M_PI / 180.0;
+  const Camera c = Camera::fromFov(512, 424, hfov, vfov);
+  EXPECT_NEAR(c.hfov(), hfov, 1e-12);
+  EXPECT_NEAR(c.vfov(), vfov, 1e-12);
+  EXPECT_DOUBLE_EQ(c.cx, 255.5);
+  EXPECT_DOUBLE_EQ(c.cy, 211.5);
+  // The outer pixel edge sits at half the field of view.
+  EXPECT_NEAR(std::atan((511.5 - c.cx) / c.fx), hfov / 2, 1e-12);
+}
+
+TEST(Camera, RejectsBadModels)
+{
+  expectInvalid([] { Camera(512, 424, 0.0, 365, 256, 212); }, {"fx", "0"});
+  expectInvalid([] { Camera(512, 424, 365, NAN, 256, 212); }, {"fy", "nan"});
+  expectInvalid([] { Camera(0, 424, 365, 365, 256, 212); }, {"width", "0"});
+  expectInvalid([] { Camera(512, 424, 365, 365, INFINITY, 212); }, {"cx"});
+  expectInvalid([] { Camera::fromFov(512, 424, 3.2, 1.0); }, {"hfov", "3.2"});
+}
+
+TEST(Config, DefaultsAreValid) { EXPECT_NO_THROW(Config().validate()); }
+
+TEST(Config, RefusesBadFieldsNamingThem)
+{
+  auto with = [](auto f) {
+    return [f] {
+      Config c;
+      f(c);
+      c.validate();
+    };
+  };
+  expectInvalid(with([](Config& c) { c.sensor_height = -1.0; }), {"sensor_height", "-1"});
+  expectInvalid(with([](Config& c) { c.ceiling_height = 0.9; }), {"ceiling_height", "sensor_height", "0.9"});
+  expectInvalid(with([](Config& c) { c.open_kernel_size = 4; }), {"open_kernel_size", "4", "odd"});
+  expectInvalid(with([](Config& c) { c.range_max = 0.05; }), {"range_max", "range_min"});
+  expectInvalid(with([](Config& c) { c.sensor_pitch = 2.0; }), {"sensor_pitch", "2"});
+  expectInvalid(with([](Config& c) { c.confidence_window = 0; }), {"confidence_window", "0"});
+  expectInvalid(with([](Config& c) { c.min_intensity = 1.5; }), {"min_intensity", "1.5"});
+  expectInvalid(with([](Config& c) { c.threshold_curve = {{1.0, 0.1}}; }), {"threshold_curve", "1 point"});
+  expectInvalid(with([](Config& c) { c.threshold_curve = {{2.0, 0.1}, {1.0, 0.2}}; }), {"point 1", "increasing"});
+  expectInvalid(with([](Config& c) { c.threshold_curve = {{1.0, 0.3}, {2.0, 0.2}}; }), {"point 1", "non-decreasing"});
+  expectInvalid(with([](Config& c) { c.threshold_curve = {{1.0, 0.0}, {2.0, 0.2}}; }), {"point 0", "> 0"});
+}
+
+TEST(Config, CurveTextRoundTrips)
+{
+  const auto curve = defaultThresholdCurve();
+  const auto back = parseThresholdCurve(formatThresholdCurve(curve));
+  ASSERT_EQ(back.size(), curve.size());
+  for (std::size_t i = 0; i < curve.size(); ++i)
+  {
+    EXPECT_DOUBLE_EQ(back[i].depth, curve[i].depth);
+    EXPECT_DOUBLE_EQ(back[i].threshold, curve[i].threshold);
+  }
+  expectInvalid([] { parseThresholdCurve("1.0:0.1, 2.0"); }, {"'2.0'", "depth:threshold"});
+  expectInvalid([] { parseThresholdCurve("1.0:0.1, 2.0:x"); }, {"2.0:x"});
+}
+
+TEST(Config, EnumNames)
+{
+  EXPECT_EQ(geometryFromString("thesis"), Geometry::kThesis);
+  EXPECT_EQ(projectionFromString("column"), Projection::kColumn);
+  EXPECT_EQ(kernelShapeFromString("ellipse"), KernelShape::kEllipse);
+  expectInvalid([] { geometryFromString("Exact"); }, {"geometry", "'Exact'", "'exact'"});
+  expectInvalid([] { projectionFromString("radial"); }, {"projection", "radial"});
+}

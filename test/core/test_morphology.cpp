@@ -1,1 +1,81 @@
 #include <gtest/gtest.h>
+
+#include <cfloat>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "kinect_pipeline/morphology.h"
+
+using namespace kinect_pipeline;
+
+namespace
+{
+cv::Mat randomImage(int rows, int cols, int type, unsigned seed)
+{
+  cv::Mat m(rows, cols, type);
+  std::mt19937 rng(seed);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+    {
+      const unsigned v = rng();
+      if (type == CV_8UC1)
+        m.at<std::uint8_t>(r, c) = static_cast<std::uint8_t>(v);
+      else if (type == CV_16UC1)
+        m.at<std::uint16_t>(r, c) = static_cast<std::uint16_t>(v);
+      else
+        m.at<float>(r, c) = (v % 5 == 0) ? INFINITY : static_cast<float>(v % 10000) / 997.0f;
+    }
+  return m;
+}
+
+bool identical(const cv::Mat& a, const cv::Mat& b)
+{
+  if (a.size() != b.size() || a.type() != b.type())
+    return false;
+  for (int r = 0; r < a.rows; ++r)
+    if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0)
+      return false;
+  return true;
+}
+}  // namespace
+
+class OpenVsOpenCV : public ::testing::TestWithParam<std::tuple<int, int, int, int>>
+{
+};
+
+// OpenCV's morphologyEx is the slow, obvious reference.
+TEST_P(OpenVsOpenCV, RectIsIdentical)
+{
+  const auto [type, ksize, rows, cols] = GetParam();
+  const cv::Mat img = randomImage(rows, cols, type, 7 + ksize + rows);
+  cv::Mat ref, got, scratch;
+  cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
+  morphOpen(img, got, ksize, KernelShape::kRect, scratch);
+  if (type == CV_32FC1)
+    ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
+  EXPECT_TRUE(identical(ref, got));
+}
+
+INSTANTIATE_TEST_SUITE_P(Types, OpenVsOpenCV,
+                         ::testing::Combine(::testing::Values(CV_8UC1, CV_16UC1, CV_32FC1), ::testing::Values(3, 5, 7),
+                                            ::testing::Values(1, 2, 37), ::testing::Values(1, 2, 64)));
+
+TEST(Morphology, OtherShapesUseOpenCV)
+{
+  const cv::Mat img = randomImage(40, 50, CV_16UC1, 3);
+  for (auto [shape, cv_shape] : {std::pair{KernelShape::kCross, cv::MORPH_CROSS}, {KernelShape::kEllipse, cv::MORPH_ELLIPSE}})
+  {
+    cv::Mat ref, got, scratch;
+    cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(5, 5)));
+    morphOpen(img, got, 5, shape, scratch);
+    EXPECT_TRUE(identical(ref, got));
+  }
+}
+
+TEST(Morphology, RefusesEvenKernels)
+{
+  cv::Mat img(4, 4, CV_8UC1, cv::Scalar(3)), out, scratch;
+  EXPECT_THROW(morphOpen(img, out, 4, KernelShape::kRect, scratch), std::invalid_argument);
+  EXPECT_THROW(morphOpen(img, out, 1, KernelShape::kRect, scratch), std::invalid_argument);
+}

@@ -1,1 +1,483 @@
+// The whole pipeline against a slow, obvious reference written here: OpenCV's opening, ray/plane
+// intersection in double precision, the threshold curve evaluated per pixel, std::atan2 per pixel edge.
 #include <gtest/gtest.h>
+
+#include <cfloat>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+#include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/threshold_curve.h"
+#include "test_util.h"
+
+using namespace kinect_pipeline;
+using kp_test::kInf;
+
+namespace
+{
+Camera kinect() { return Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180); }
+
+Scene labScene()
+{
+  Scene s;
+  s.ceiling = 2.7;
+  s.boxes = {{1.5, 2.0, -0.4, 0.3, 0.0, 0.6}, {2.5, 2.9, 0.5, 1.0, 0.0, 1.8}, {3.0, 3.3, -1.2, -0.9, 0.0, 0.05},
+             {1.2, 1.6, 0.8, 1.2, 1.5, 1.7}, {4.5, 4.8, -3.0, 3.0, 0.0, 2.7}};
+  s.holes = {{2.0, 2.4, -1.2, -0.6, 0, 0}};
+  return s;
+}
+
+struct Ref
+{
+  cv::Mat labels;               // CV_8U
+  std::vector<double> ranges;   // +Inf where no kept pixel covers the bin
+  cv::Mat margin;               // CV_64F: distance of the pixel from its nearest label boundary [m]
+};
+
+double curveAt(const std::vector<CurvePoint>& c, double d)
+{
+  if (d <= c.front().depth)
+    return c.front().threshold;
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (d <= c[i].depth)
+      return c[i - 1].threshold +
+             (c[i].threshold - c[i - 1].threshold) * (d - c[i - 1].depth) / (c[i].depth - c[i - 1].depth);
+  return c.back().threshold;
+}
+
+template <typename T>
+bool unknown(T v)
+{
+  if constexpr (std::is_same_v<T, std::uint8_t>)
+    return v < 2;
+  else if constexpr (std::is_same_v<T, std::uint16_t>)
+    return v == 0;
+  else
+    return !(std::isfinite(v) && v > 0);
+}
+
+template <typename T>
+Ref reference(const Camera& cam, const Config& cfg, const cv::Mat& in, double pitch, double roll, const ScanData& scan)
+{
+  const double max_value = std::is_same_v<T, float> ? INFINITY : std::numeric_limits<T>::max();
+  cv::Mat mapped(in.size(), in.type());
+  for (int r = 0; r < in.rows; ++r)
+    for (int u = 0; u < in.cols; ++u)
+      mapped.at<T>(r, u) = unknown(in.at<T>(r, u)) ? static_cast<T>(max_value) : in.at<T>(r, u);
+  cv::Mat opened = mapped;
+  if (cfg.open_kernel_size >= 3)
+  {
+    const int shape = cfg.open_kernel_shape == KernelShape::kRect ? cv::MORPH_RECT
+                      : cfg.open_kernel_shape == KernelShape::kCross ? cv::MORPH_CROSS
+                                                                     : cv::MORPH_ELLIPSE;
+    cv::morphologyEx(mapped, opened, cv::MORPH_OPEN,
+                     cv::getStructuringElement(shape, cv::Size(cfg.open_kernel_size, cfg.open_kernel_size)));
+  }
+  const double scale = std::is_same_v<T, std::uint8_t> ? cfg.max_depth / 255.0 : std::is_same_v<T, std::uint16_t> ? 0.001 : 1.0;
+  const double step = std::is_same_v<T, std::uint8_t> ? cfg.max_depth / 255.0 : std::is_same_v<T, std::uint16_t> ? 0.001 : 0.0;
+  const double h = cfg.sensor_height;
+  Ref ref;
+  ref.labels.create(in.size(), CV_8U);
+  ref.margin.create(in.size(), CV_64F);
+  ref.ranges.assign(scan.ranges.size(), kInf);
+  const double lo = scan.angle_min - 0.5 * scan.angle_increment;
+  const int beams = static_cast<int>(scan.ranges.size());
+  for (int r = 0; r < in.rows; ++r)
+    for (int u = 0; u < in.cols; ++u)
+    {
+      const T v = opened.at<T>(r, u);
+      ref.margin.at<double>(r, u) = kInf;
+      if (static_cast<double>(v) >= std::min(max_value, static_cast<double>(FLT_MAX)))  // OpenCV pads with FLT_MAX
+      {
+        ref.labels.at<std::uint8_t>(r, u) = kInvalid;
+        continue;
+      }
+      const double z = v * scale;
+      const double t = std::max(curveAt(cfg.threshold_curve, std::is_same_v<T, std::uint8_t> ? (v + 0.5) * step : z), step);
+      double zf, zc;
+      if (cfg.geometry == Geometry::kExact)
+      {
+        zf = kp_test::planeDepth(cam, u, r, h, pitch, roll, 0.0);
+        zc = kp_test::planeDepth(cam, u, r, h, pitch, roll, cfg.ceiling_height);
+      }
+      else
+      {
+        const double theta = (r - cam.height / 2.0) / cam.height * cam.vfov();
+        const double denom = std::tan(theta) + std::tan(pitch);
+        zf = denom > 0 ? std::cos(pitch) * h / denom : kInf;
+        zc = denom < 0 ? std::cos(pitch) * cfg.ceiling_height / -denom : kInf;
+      }
+      std::uint8_t label = kKept;
+      if (z > zc)
+        label = kAboveCeiling;
+      else if (z > zf + t)
+        label = kBelowFloor;
+      else if (std::fabs(z - zf) < t)
+        label = kFloor;
+      ref.labels.at<std::uint8_t>(r, u) = label;
+      // How far the pixel is from changing label, in metres of depth (float rounding and the LUT's 1 cm cells
+      // may flip pixels this close to a boundary).
+      const double m = std::min({std::fabs(z - zc), std::fabs(std::fabs(z - zf) - t), std::fabs(z - zf - t)});
+      ref.margin.at<double>(r, u) = m;
+      if (label != kKept)
+        continue;
+      double range, a0, a1;
+      if (cfg.projection == Projection::kHorizontal)
+      {
+        const kp_test::V3 d = kp_test::rayWorld(cam, u, r, pitch, roll);
+        const kp_test::V3 e0 = kp_test::rayWorld(cam, u - 0.5, r, pitch, roll), e1 = kp_test::rayWorld(cam, u + 0.5, r, pitch, roll);
+        range = z * std::hypot(d.x, d.y);
+        a0 = std::atan2(e0.y, e0.x);
+        a1 = std::atan2(e1.y, e1.x);
+      }
+      else if (cfg.geometry == Geometry::kExact)
+      {
+        range = z * std::sqrt(1.0 + std::pow((u - cam.cx) / cam.fx, 2));
+        a0 = -std::atan((u - 0.5 - cam.cx) / cam.fx);
+        a1 = -std::atan((u + 0.5 - cam.cx) / cam.fx);
+      }
+      else
+      {
+        const double hfov = cam.hfov(), w = cam.width;
+        range = z / std::cos((u - w / 2) / w * hfov);
+        a0 = -((u - 0.5) - w / 2) / w * hfov;
+        a1 = -((u + 0.5) - w / 2) / w * hfov;
+      }
+      const double f0 = (std::min(a0, a1) - lo) / scan.angle_increment, f1 = (std::max(a0, a1) - lo) / scan.angle_increment;
+      for (int b = std::max(0, static_cast<int>(std::floor(f0))); b <= std::min(beams - 1, static_cast<int>(std::floor(f1))); ++b)
+        ref.ranges[b] = std::min(ref.ranges[b], range);
+    }
+  for (double& x : ref.ranges)
+    x = x < cfg.range_min ? -kInf : (x > cfg.range_max ? kInf : x);
+  return ref;
+}
+
+struct Case
+{
+  int type;
+  Geometry geometry;
+  Projection projection;
+  double pitch, roll;
+  bool noise;
+};
+
+std::string name(const Case& c)
+{
+  auto num = [](double v) { return (v < 0 ? "m" : "") + std::to_string(static_cast<int>(std::lround(std::fabs(v) * 1000))); };
+  return cv::typeToString(c.type) + "_" + toString(c.geometry) + "_" + toString(c.projection) + "_pitch" +
+         num(c.pitch) + "_roll" + num(c.roll) + (c.noise ? "_noisy" : "");
+}
+
+template <typename T>
+void compare(const Case& c)
+{
+  const Camera cam = kinect();
+  Config cfg;
+  cfg.sensor_height = 1.1;
+  cfg.sensor_pitch = 0.2;
+  cfg.geometry = c.geometry;
+  cfg.projection = c.projection;
+  Rendering gt;
+  renderScene(cam, 1.1, c.pitch, c.roll, labScene(), gt);
+  cv::Mat metres = gt.depth.clone();
+  if (c.noise)
+    addKinectNoise(metres, 42);
+  const cv::Mat frame = encodeDepth(metres, c.type, cfg.max_depth);
+  Pipeline pipe(cam, cfg);
+  FrameResult res;
+  pipe.process(frame, c.pitch - cfg.sensor_pitch, c.roll, res);
+  const Ref ref = reference<T>(cam, cfg, frame, c.pitch, c.roll, res.scan);
+
+  int mismatched = 0, unexplained = 0;
+  for (int r = 0; r < cam.height; ++r)
+    for (int u = 0; u < cam.width; ++u)
+      if (res.labels.at<std::uint8_t>(r, u) != ref.labels.at<std::uint8_t>(r, u))
+      {
+        ++mismatched;
+        if (ref.margin.at<double>(r, u) > 0.011)
+          ++unexplained;
+      }
+  EXPECT_EQ(unexplained, 0) << "label mismatches away from any boundary";
+  EXPECT_LE(mismatched, static_cast<int>(cam.width * cam.height * 1e-3));
+
+  // Cleaned depth: the opened value where kept, the encoding's "removed" value elsewhere.
+  for (int r = 0; r < cam.height; r += 3)
+    for (int u = 0; u < cam.width; u += 3)
+    {
+      const T got = res.depth.at<T>(r, u);
+      if (res.labels.at<std::uint8_t>(r, u) != kKept)
+      {
+        if constexpr (std::is_same_v<T, float>)
+          ASSERT_TRUE(std::isnan(got));
+        else
+          ASSERT_EQ(got, DepthTraits<T>::removed());
+      }
+    }
+
+  std::uint64_t total = 0;
+  for (auto n : res.counts)
+    total += n;
+  EXPECT_EQ(total, static_cast<std::uint64_t>(cam.width * cam.height));
+
+  int bad_beams = 0;
+  for (std::size_t b = 0; b < ref.ranges.size(); ++b)
+  {
+    const double want = ref.ranges[b];
+    const float got = res.scan.ranges[b];
+    if (std::isnan(got))
+      continue;  // outside what the image covers at this pose (checked elsewhere)
+    const bool ok = std::isfinite(want) ? std::fabs(got - want) <= 1e-3 * want + 1e-4 : got == static_cast<float>(want);
+    bad_beams += !ok;
+  }
+  // A beam may differ where a label flipped at a boundary or a pixel edge lies on a bin boundary.
+  EXPECT_LE(bad_beams, std::max(2, mismatched / 20)) << "of " << ref.ranges.size();
+}
+}  // namespace
+
+class PipelineVsReference : public ::testing::TestWithParam<Case>
+{
+};
+
+TEST_P(PipelineVsReference, LabelsAndScanMatch)
+{
+  const Case c = GetParam();
+  SCOPED_TRACE(name(c));
+  switch (c.type)
+  {
+    case CV_8UC1:
+      return compare<std::uint8_t>(c);
+    case CV_16UC1:
+      return compare<std::uint16_t>(c);
+    default:
+      return compare<float>(c);
+  }
+}
+
+std::vector<Case> cases()
+{
+  std::vector<Case> out;
+  for (int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+    for (Geometry g : {Geometry::kExact, Geometry::kThesis})
+      for (Projection p : {Projection::kHorizontal, Projection::kColumn})
+      {
+        out.push_back({type, g, p, 0.26, 0.0, false});
+        out.push_back({type, g, p, 0.35, g == Geometry::kExact ? 0.035 : 0.0, true});
+      }
+  out.push_back({CV_16UC1, Geometry::kExact, Projection::kHorizontal, -0.1, 0.0, true});
+  out.push_back({CV_32FC1, Geometry::kExact, Projection::kHorizontal, 0.7, -0.05, true});
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, PipelineVsReference, ::testing::ValuesIn(cases()),
+                         [](const ::testing::TestParamInfo<Case>& i) { return name(i.param); });
+
+// ------------------------------------------------------------------ edge cases
+
+TEST(PipelineEdge, AllInvalidGivesInvalidLabelsAndNoReturn)
+{
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  for (int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+  {
+    cv::Mat zeros(cam.height, cam.width, type, cv::Scalar(0));
+    pipe.process(zeros, 0.0, 0.0, res);
+    EXPECT_EQ(cv::countNonZero(res.labels != kInvalid), 0);
+    EXPECT_EQ(res.counts[kInvalid], static_cast<std::uint64_t>(cam.width * cam.height));
+    for (float r : res.scan.ranges)
+      ASSERT_TRUE(std::isinf(r) && r > 0);
+  }
+}
+
+TEST(PipelineEdge, NanAndInfinitiesAreUnknownNeverFiniteRanges)
+{
+  const Camera cam = kinect();
+  Config cfg;
+  cfg.open_kernel_size = 0;
+  Pipeline pipe(cam, cfg);
+  cv::Mat img(cam.height, cam.width, CV_32FC1);
+  const float values[] = {NAN, INFINITY, -INFINITY, 0.0f, -1.0f};
+  for (int r = 0; r < img.rows; ++r)
+    for (int u = 0; u < img.cols; ++u)
+      img.at<float>(r, u) = values[(r + u) % 5];
+  FrameResult res;
+  pipe.process(img, 0.0, 0.0, res);
+  EXPECT_EQ(cv::countNonZero(res.labels != kInvalid), 0);
+  for (float r : res.scan.ranges)
+    ASSERT_FALSE(std::isfinite(r));
+  for (int r = 0; r < img.rows; ++r)
+    for (int u = 0; u < img.cols; ++u)
+      ASSERT_TRUE(std::isnan(res.depth.at<float>(r, u)));
+}
+
+TEST(PipelineEdge, OneRowAndOneColumnImages)
+{
+  for (auto [w, h] : {std::pair{512, 1}, {1, 424}, {1, 1}})
+  {
+    const Camera cam(w, h, 365.0, 365.0, (w - 1) / 2.0, (h - 1) / 2.0);
+    Config cfg;
+    cfg.sensor_pitch = 0.3;
+    Pipeline pipe(cam, cfg);
+    cv::Mat img(h, w, CV_16UC1, cv::Scalar(1500));
+    FrameResult res;
+    ASSERT_NO_THROW(pipe.process(img, 0.0, 0.0, res));
+    EXPECT_EQ(res.labels.size(), img.size());
+    EXPECT_EQ(res.scan.ranges.size(), static_cast<std::size_t>(w));
+    // Each row is checked against the exact floor prediction: 1.5 m is the floor where the ray meets it there.
+    for (int r = 0; r < h; ++r)
+    {
+      const double zf = kp_test::planeDepth(cam, 0, r, cfg.sensor_height, 0.3, 0.0, 0.0);
+      const double t = evaluateCurve(cfg.threshold_curve, 1.5);  // 3.7 cm
+      if (std::fabs(zf - 1.5) < t - 0.005)
+        EXPECT_EQ(res.labels.at<std::uint8_t>(r, 0), kFloor) << r;
+      else if (!(zf < 1.5 + t + 0.005))  // nearer than the floor (or no floor): an obstacle
+        EXPECT_EQ(res.labels.at<std::uint8_t>(r, 0), kKept) << r << " zf " << zf;
+      else if (zf < 1.5 - t - 0.005)  // beyond the floor: a hole
+        EXPECT_EQ(res.labels.at<std::uint8_t>(r, 0), kBelowFloor) << r << " zf " << zf;
+    }
+  }
+}
+
+TEST(PipelineEdge, NoFloorInViewRemovesNoFloor)
+{
+  const Camera cam = kinect();
+  Config cfg;
+  cfg.sensor_pitch = -0.6;  // looking up: no ray meets the floor
+  Scene s;
+  s.boxes = {{2.0, 2.2, -3.0, 3.0, 0.0, 1.95}};
+  s.ceiling = 3.0;
+  Rendering gt;
+  renderScene(cam, cfg.sensor_height, -0.6, 0.0, s, gt);
+  Pipeline pipe(cam, cfg);
+  FrameResult res;
+  pipe.process(encodeDepth(gt.depth, CV_16UC1, 12.0), 0.0, 0.0, res);
+  EXPECT_EQ(res.counts[kFloor], 0u);
+  EXPECT_EQ(res.counts[kBelowFloor], 0u);
+  int wall = 0, kept = 0;
+  for (int r = 1; r < cam.height - 1; ++r)
+    for (int u = 1; u < cam.width - 1; ++u)
+      if (gt.object.at<short>(r, u) == 10 && gt.height.at<float>(r, u) < 1.9f)
+      {
+        ++wall;
+        kept += res.labels.at<std::uint8_t>(r, u) == kKept;
+      }
+  ASSERT_GT(wall, 1000);
+  EXPECT_EQ(kept, wall);
+}
+
+TEST(PipelineEdge, LookingStraightDownAndUp)
+{
+  const Camera cam = kinect();
+  Scene floor_only;
+  floor_only.ceiling = 2.5;
+  for (double pitch : {M_PI / 2, -M_PI / 2})
+  {
+    Config cfg;
+    cfg.sensor_pitch = pitch;
+    Rendering gt;
+    renderScene(cam, cfg.sensor_height, pitch, 0.0, floor_only, gt);
+    Pipeline pipe(cam, cfg);
+    FrameResult res;
+    pipe.process(encodeDepth(gt.depth, CV_32FC1, 12.0), 0.0, 0.0, res);
+    const std::uint64_t all = cam.width * cam.height;
+    if (pitch > 0)
+      EXPECT_EQ(res.counts[kFloor], all);
+    else
+      EXPECT_EQ(res.counts[kAboveCeiling], all);
+    for (float r : res.scan.ranges)
+      EXPECT_FALSE(std::isfinite(r));
+  }
+}
+
+TEST(PipelineEdge, NonContiguousInputEqualsContiguous)
+{
+  const Camera cam = kinect();
+  Rendering gt;
+  renderScene(cam, 1.1, 0.26, 0.0, labScene(), gt);
+  const cv::Mat frame = encodeDepth(gt.depth, CV_16UC1, 12.0);
+  cv::Mat big(cam.height + 20, cam.width + 40, CV_16UC1, cv::Scalar(777));
+  frame.copyTo(big(cv::Rect(17, 9, cam.width, cam.height)));
+  const cv::Mat roi = big(cv::Rect(17, 9, cam.width, cam.height));
+  ASSERT_FALSE(roi.isContinuous());
+  Config cfg;
+  cfg.sensor_pitch = 0.26;
+  Pipeline a(cam, cfg), b(cam, cfg);
+  FrameResult ra, rb;
+  a.process(frame, 0.0, 0.0, ra);
+  b.process(roi, 0.0, 0.0, rb);
+  EXPECT_EQ(cv::countNonZero(ra.labels != rb.labels), 0);
+  EXPECT_EQ(cv::countNonZero(ra.depth != rb.depth), 0);
+  EXPECT_EQ(ra.scan.ranges, rb.scan.ranges);
+}
+
+TEST(PipelineEdge, OneAndTwoThreadsGiveTheSameFrame)
+{
+  const Camera cam = kinect();
+  Rendering gt;
+  renderScene(cam, 1.1, 0.3, 0.02, labScene(), gt);
+  cv::Mat m = gt.depth.clone();
+  addKinectNoise(m, 5);
+  for (int type : {CV_8UC1, CV_32FC1})
+  {
+    const cv::Mat frame = encodeDepth(m, type, 12.0);
+    Config one, two;
+    one.sensor_pitch = two.sensor_pitch = 0.3;
+    one.num_threads = 1;
+    two.num_threads = 2;
+    Pipeline a(cam, one), b(cam, two);
+    FrameResult ra, rb;
+    a.process(frame, 0.0, 0.02, ra);
+    b.process(frame, 0.0, 0.02, rb);
+    EXPECT_EQ(cv::countNonZero(ra.labels != rb.labels), 0);
+    for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
+      ASSERT_TRUE(ra.scan.ranges[i] == rb.scan.ranges[i] || (std::isnan(ra.scan.ranges[i]) && std::isnan(rb.scan.ranges[i])));
+  }
+}
+
+TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
+{
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  auto message = [&](const cv::Mat& m, double pitch = 0.0) {
+    try
+    {
+      pipe.process(m, pitch, 0.0, res);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_NE(message(cv::Mat()).find("empty"), std::string::npos);
+  EXPECT_NE(message(cv::Mat(424, 512, CV_16SC1)).find("16SC1"), std::string::npos);
+  EXPECT_NE(message(cv::Mat(424, 512, CV_8UC3)).find("8UC3"), std::string::npos);
+  const std::string size = message(cv::Mat(480, 640, CV_16UC1));
+  EXPECT_NE(size.find("640x480"), std::string::npos);
+  EXPECT_NE(size.find("512x424"), std::string::npos);
+  EXPECT_NE(message(cv::Mat(424, 512, CV_16UC1, cv::Scalar(1)), NAN).find("base_pitch"), std::string::npos);
+  // The pipeline still works after refusing.
+  EXPECT_NO_THROW(pipe.process(cv::Mat(424, 512, CV_16UC1, cv::Scalar(1000)), 0.0, 0.0, res));
+}
+
+TEST(PipelineEdge, FramesNeedNoAllocationOnceWarm)
+{
+  // The result's buffers are reused: same data pointers frame after frame.
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  cv::Mat frame(cam.height, cam.width, CV_8UC1, cv::Scalar(40));
+  pipe.process(frame, 0.0, 0.0, res);
+  const void* d = res.depth.data;
+  const void* l = res.labels.data;
+  const float* r = res.scan.ranges.data();
+  for (int i = 0; i < 5; ++i)
+    pipe.process(frame, 0.01 * i, 0.0, res);
+  EXPECT_EQ(res.depth.data, d);
+  EXPECT_EQ(res.labels.data, l);
+  EXPECT_EQ(res.scan.ranges.data(), r);
+}

@@ -1,1 +1,64 @@
 #include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "kinect_pipeline/threshold_curve.h"
+
+using namespace kinect_pipeline;
+
+namespace
+{
+// Reference: linear interpolation written out, flat outside.
+double slowCurve(const std::vector<CurvePoint>& c, double d)
+{
+  if (d <= c.front().depth)
+    return c.front().threshold;
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (d <= c[i].depth)
+      return c[i - 1].threshold +
+             (c[i].threshold - c[i - 1].threshold) * (d - c[i - 1].depth) / (c[i].depth - c[i - 1].depth);
+  return c.back().threshold;
+}
+}  // namespace
+
+TEST(ThresholdCurve, InterpolatesLikeTheReference)
+{
+  const std::vector<CurvePoint> c = {{0.5, 0.02}, {1.0, 0.03}, {4.0, 0.2}, {8.0, 0.6}};
+  for (double d = 0.0; d < 10.0; d += 0.01)
+    EXPECT_NEAR(evaluateCurve(c, d), slowCurve(c, d), 1e-12) << d;
+}
+
+TEST(ThresholdLut, EightBitIndexedByValueNeverBelowOneStep)
+{
+  const auto c = defaultThresholdCurve();
+  ThresholdLut lut;
+  lut.build(c, Encoding::kMono8, 12.0);
+  ASSERT_EQ(lut.table().size(), 256u);
+  const double step = 12.0 / 255.0;
+  for (int v = 0; v < 256; ++v)
+  {
+    EXPECT_GE(lut.forValue(static_cast<std::uint8_t>(v)), static_cast<float>(step) * 0.9999f);
+    EXPECT_NEAR(lut.forValue(static_cast<std::uint8_t>(v)), std::max(slowCurve(c, (v + 0.5) * step), step), 1e-6);
+  }
+}
+
+TEST(ThresholdLut, DepthTableIsTheCurveAtCentimetreCells)
+{
+  const auto c = defaultThresholdCurve();
+  for (Encoding e : {Encoding::kMono16, Encoding::kFloat32})
+  {
+    ThresholdLut lut;
+    lut.build(c, e, 12.0);
+    for (double d = 0.0; d < 14.0; d += 0.0037)
+    {
+      const double ref = std::max(slowCurve(c, d), encodingStep(e, 12.0));
+      // The cell's value is the curve at the cell's far end: never below, at most 1 cm of slope above.
+      EXPECT_GE(lut.forDepth(static_cast<float>(d)), ref - 1e-6) << d;
+      EXPECT_LE(lut.forDepth(static_cast<float>(d)), slowCurve(c, d + 0.0101) + 1e-6) << d;
+    }
+    // Out-of-range depths clamp to the ends instead of reading outside the table.
+    EXPECT_FLOAT_EQ(lut.forDepth(1e30f), static_cast<float>(c.back().threshold));
+    EXPECT_FLOAT_EQ(lut.forDepth(std::numeric_limits<float>::infinity()), static_cast<float>(c.back().threshold));
+    EXPECT_FLOAT_EQ(lut.forDepth(-3.0f), lut.table().front());
+  }
+}

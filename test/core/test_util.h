@@ -1,0 +1,42 @@
+// Helpers shared by the core tests: slow, obvious reference geometry in double precision.
+#pragma once
+
+#include <cmath>
+#include <limits>
+
+#include "kinect_pipeline/camera.h"
+
+namespace kp_test
+{
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+struct V3
+{
+  double x, y, z;
+};
+
+/** Ray of pixel (u, v) in the gravity-aligned frame (x fwd, y left, z up), per metre of optical depth:
+ *  R = Ry(pitch) * Rx(roll) applied to (1, -xn, -yn), written out with explicit matrices. */
+inline V3 rayWorld(const kinect_pipeline::Camera& c, double u, double v, double pitch, double roll)
+{
+  const double xn = (u - c.cx) / c.fx, yn = (v - c.cy) / c.fy;
+  const double b[3] = {1.0, -xn, -yn};
+  const double Rx[3][3] = {{1, 0, 0}, {0, std::cos(roll), -std::sin(roll)}, {0, std::sin(roll), std::cos(roll)}};
+  const double Ry[3][3] = {{std::cos(pitch), 0, std::sin(pitch)}, {0, 1, 0}, {-std::sin(pitch), 0, std::cos(pitch)}};
+  double t[3], o[3];
+  for (int i = 0; i < 3; ++i)
+    t[i] = Rx[i][0] * b[0] + Rx[i][1] * b[1] + Rx[i][2] * b[2];
+  for (int i = 0; i < 3; ++i)
+    o[i] = Ry[i][0] * t[0] + Ry[i][1] * t[1] + Ry[i][2] * t[2];
+  return {o[0], o[1], o[2]};
+}
+
+/** Depth at which the ray of pixel (u, v) meets the plane z = plane_z, seen from height h; +Inf if never. */
+inline double planeDepth(const kinect_pipeline::Camera& c, int u, int v, double h, double pitch, double roll,
+                         double plane_z)
+{
+  const V3 d = rayWorld(c, u, v, pitch, roll);
+  const double t = (plane_z - h) / d.z;
+  return (d.z != 0.0 && t > 0.0) ? t : kInf;
+}
+}  // namespace kp_test
