@@ -39,6 +39,7 @@ struct Rendering
   cv::Mat depth;   ///< CV_32F, depth along the optical axis [m], +Inf where the ray hits nothing
   cv::Mat height;  ///< CV_32F, height of the hit above the floor [m], NaN where nothing is hit
   cv::Mat range;   ///< CV_32F, horizontal distance of the hit from the sensor [m], NaN where nothing is hit
+  cv::Mat angle;   ///< CV_32F, bearing of the hit, atan2(y, x) counter-clockwise from forward [rad], NaN if none
   cv::Mat object;  ///< CV_16S: -1 nothing, 0 floor, 1 ceiling, 2 hole bottom, 10 + i box i
 };
 
@@ -48,6 +49,12 @@ struct Rendering
  */
 void renderScene(const Camera& camera, double height, double pitch, double roll, const Scene& scene,
                  Rendering& out);
+
+/** @return the depth noise of the Kinect v2 model, sigma0 + k * (z - 0.4)^2 [m], at depth @p z [m]. */
+inline double kinectSigma(double z, double sigma0 = 0.0015, double k = 0.0019)
+{
+  return sigma0 + k * (z - 0.4) * (z - 0.4);
+}
 
 /**
  * @brief Adds Kinect-v2-like depth noise in place: sigma(z) = sigma0 + k * (z - 0.4)^2 (Gaussian), then sets a

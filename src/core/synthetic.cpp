@@ -47,6 +47,7 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
   out.depth.create(camera.height, camera.width, CV_32F);
   out.height.create(camera.height, camera.width, CV_32F);
   out.range.create(camera.height, camera.width, CV_32F);
+  out.angle.create(camera.height, camera.width, CV_32F);
   out.object.create(camera.height, camera.width, CV_16S);
   const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
   // R = Ry(pitch) * Rx(roll): sensor frame (x fwd, y left, z up) -> gravity-aligned frame.
@@ -114,11 +115,13 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
         out.depth.at<float>(v, u) = std::numeric_limits<float>::infinity();
         out.height.at<float>(v, u) = nanf;
         out.range.at<float>(v, u) = nanf;
+        out.angle.at<float>(v, u) = nanf;
         continue;
       }
       out.depth.at<float>(v, u) = static_cast<float>(best);
       out.height.at<float>(v, u) = static_cast<float>(o.z + best * d.z);
       out.range.at<float>(v, u) = static_cast<float>(best * std::hypot(d.x, d.y));
+      out.angle.at<float>(v, u) = static_cast<float>(std::atan2(d.y, d.x));
     }
   }
 }
@@ -139,7 +142,7 @@ void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0, double k,
       if (!std::isfinite(row[u]))
         continue;
       const double z = row[u];
-      const double sigma = sigma0 + k * (z - 0.4) * (z - 0.4);
+      const double sigma = kinectSigma(z, sigma0, k);
       row[u] = drop < dropout ? std::numeric_limits<float>::infinity() : static_cast<float>(z + sigma * n);
     }
   }

@@ -263,16 +263,21 @@ PYBIND11_MODULE(_core, m)
             py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
             res.depth = py::array(dt, {in.rows, in.cols});
             res.labels = py::array(py::dtype::of<std::uint8_t>(), {in.rows, in.cols});
+            void* depth_out = res.depth.mutable_data();  // numpy calls need the GIL
+            void* labels_out = res.labels.mutable_data();
+            FrameResult fr;
             {
               py::gil_scoped_release release;
               std::lock_guard<std::mutex> lock(self.mutex);
-              self.result.depth = cv::Mat(in.rows, in.cols, in.type(), res.depth.mutable_data());
-              self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, res.labels.mutable_data());
+              self.result.depth = cv::Mat(in.rows, in.cols, in.type(), depth_out);
+              self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, labels_out);
               self.pipe.process(in, base_pitch, base_roll, self.result);
+              fr.scan = self.result.scan;  // copied under the lock: another thread may process next
+              fr.counts = self.result.counts;
+              fr.times = self.result.times;
+              if (self.result.depth.data != depth_out || self.result.labels.data != labels_out)
+                throw std::logic_error("kinect_pipeline: the core reallocated its output");
             }
-            const FrameResult& fr = self.result;
-            if (fr.depth.data != res.depth.data())
-              throw std::logic_error("kinect_pipeline: output was reallocated");
             res.ranges = vecToArray(fr.scan.ranges);
             res.intensities = vecToArray(fr.scan.intensities);
             res.angle_min = fr.scan.angle_min;
@@ -372,6 +377,7 @@ PYBIND11_MODULE(_core, m)
         d["depth"] = matToArray(r.depth);
         d["height"] = matToArray(r.height);
         d["range"] = matToArray(r.range);
+        d["angle"] = matToArray(r.angle);
         d["object"] = matToArray(r.object);
         return d;
       },
@@ -379,7 +385,7 @@ PYBIND11_MODULE(_core, m)
       py::arg("boxes") = std::vector<std::array<double, 6>>{}, py::arg("holes") = std::vector<std::array<double, 4>>{},
       py::arg("hole_depth") = 0.5, py::arg("ceiling") = 0.0, py::arg("floor") = true,
       "Ray-cast a scene (boxes (x0, x1, y0, y1, z0, z1) and hole footprints (x0, x1, y0, y1) in the gravity-aligned "
-      "frame on the floor under the sensor). Returns dict of depth [m, +Inf none], height [m], range [m], "
+      "frame on the floor under the sensor). Returns dict of depth [m, +Inf none], height [m], range [m], angle [rad], "
       "object (-1 none, 0 floor, 1 ceiling, 2 hole, 10+i box i).");
   m.def(
       "add_kinect_noise",
@@ -394,6 +400,10 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("depth"), py::arg("seed"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019, py::arg("dropout") = 0.01,
       "Copy of a float32 depth [m] with Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts (+Inf).");
+  m.def(
+      "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
+      py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,
+      "Depth noise of the Kinect v2 model [m] at depth z [m] (numpy-vectorised).");
   m.def(
       "encode_depth",
       [](const py::object& metres, const std::string& encoding, double max_depth) {

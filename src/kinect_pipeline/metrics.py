@@ -1,0 +1,82 @@
+"""Quality of one processed frame against the renderer's ground truth (counting only: no pipeline math here)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from . import _core
+from .scenes import FIRST_BOX, FLOOR, NOTHING, Frame
+
+KEPT = 0
+
+
+@dataclass
+class FrameQuality:
+    """Fractions in [0, 1] (NaN where the frame has no such pixel or beam)."""
+
+    floor_removed: float  #: floor pixels within ``floor_radius`` that were removed
+    obstacles_kept: float  #: obstacle pixels 5 cm .. 1.95 m above the floor that were kept
+    above_ceiling_removed: float  #: pixels of anything 5 cm or more above the ceiling plane that were removed
+    phantom_beams: float  #: finite beams shorter than anything real by > 5 cm + 4 sigma (of all beams)
+    floor_pixels: int
+    obstacle_pixels: int
+    above_ceiling_pixels: int
+
+    def as_dict(self) -> dict[str, float]:
+        return {k: float(v) for k, v in asdict(self).items()}
+
+
+def ideal_scan(
+    truth: dict[str, np.ndarray], angle_min: float, angle_increment: float, beams: int, mask: np.ndarray
+) -> np.ndarray:
+    """Nearest true horizontal range per beam over the pixels in ``mask`` (binned by the hit's bearing);
+    +Inf where none."""
+    out = np.full(beams, np.inf)
+    angle = truth["angle"][mask].astype(np.float64)
+    rng = truth["range"][mask].astype(np.float64)
+    idx = np.floor((angle - (angle_min - 0.5 * angle_increment)) / angle_increment).astype(np.int64)
+    ok = (idx >= 0) & (idx < beams)
+    np.minimum.at(out, idx[ok], rng[ok])
+    return out
+
+
+def frame_quality(
+    result: _core.Result,
+    frame: Frame,
+    ceiling_height: float = 2.0,
+    floor_radius: float = 6.0,
+) -> FrameQuality:
+    """Scores a processed frame. A phantom beam is one shorter than the nearest real surface (any object,
+    the floor included, within one beam either side) by more than 5 cm + 4 sigma of the sensor's noise."""
+    t = frame.truth
+    obj, height, rng = t["object"], t["height"], t["range"]
+    labels = result.labels
+    floor = (obj == FLOOR) & (rng < floor_radius)
+    obstacles = (obj >= FIRST_BOX) & (height >= 0.05) & (height <= ceiling_height - 0.05)
+    # 5 cm clear of the plane on both sides: closer than that, sensor noise decides (no threshold band there).
+    above = (obj != NOTHING) & (height >= ceiling_height + 0.05)
+
+    def frac(mask: np.ndarray, good: np.ndarray) -> float:
+        n = int(mask.sum())
+        return float((mask & good).sum() / n) if n else float("nan")
+
+    removed = labels != KEPT
+    beams = len(result.ranges)
+    real = ideal_scan(t, result.angle_min, result.angle_increment, beams, obj != NOTHING)
+    real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
+    depth_of_real = real  # horizontal range <= depth: sigma(range) is the smaller, stricter margin
+    margin = 0.05 + 4.0 * _core.kinect_sigma(np.where(np.isfinite(depth_of_real), depth_of_real, 0.0))
+    r = result.ranges.astype(np.float64)
+    finite = np.isfinite(r)
+    phantom = finite & (r < real - margin)
+    return FrameQuality(
+        floor_removed=frac(floor, removed),
+        obstacles_kept=frac(obstacles, ~removed),
+        above_ceiling_removed=frac(above, removed),
+        phantom_beams=float(phantom.sum() / beams),
+        floor_pixels=int(floor.sum()),
+        obstacle_pixels=int(obstacles.sum()),
+        above_ceiling_pixels=int(above.sum()),
+    )
