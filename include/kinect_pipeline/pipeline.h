@@ -32,6 +32,14 @@ enum Label : std::uint8_t
 };
 constexpr int kNumLabels = 5;
 
+/** The sensor's pose relative to the floor for one frame (sensor mounting and base motion together). */
+struct SensorPose
+{
+  double height;  ///< optical centre above the floor [m], > 0
+  double pitch;   ///< [rad], + looks down, |pitch| <= pi/2
+  double roll;    ///< [rad], + right side down, |roll| <= pi/2
+};
+
 /** Wall-clock time of each stage of the last frame [ms]. */
 struct StageTimes
 {
@@ -85,6 +93,14 @@ public:
    *        or a non-finite pose; nothing is changed then.
    */
   void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out);
+
+  /**
+   * @brief Processes one frame at a pose given whole (e.g. from tf): sensor_height, sensor_pitch and
+   *        sensor_roll of the config are not used.
+   * @throw std::invalid_argument as process(), and for a non-finite pose, a height <= 0 or >= ceiling_height,
+   *        or |pitch|, |roll| > pi/2.
+   */
+  void process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out);
 
   /** @brief Forgets the confidence history. */
   void reset();

@@ -29,11 +29,12 @@ class PlaneModel
 public:
   /**
    * @brief Recomputes the terms if anything changed.
+   * @param height height of the optical centre above the floor [m]
    * @param pitch total pitch, sensor + base [rad], + looks down
    * @param roll total roll, sensor + base [rad], + right side down
    * @return true if the terms were recomputed
    */
-  bool update(const Camera& camera, const Config& config, double pitch, double roll);
+  bool update(const Camera& camera, const Config& config, double height, double pitch, double roll);
 
   /** @return col(u) for every column (0 in thesis mode and without roll). */
   const std::vector<float>& colTerm() const { return col_; }

@@ -214,6 +214,18 @@ void Pipeline::prepareBuffers(int threads)
 
 void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out)
 {
+  if (!std::isfinite(base_pitch) || !std::isfinite(base_roll))
+  {
+    std::ostringstream s;
+    s << "pose: base_pitch = " << base_pitch << " rad, base_roll = " << base_roll << " rad: expected finite values";
+    throw std::invalid_argument(s.str());
+  }
+  process(depth, SensorPose{config_.sensor_height, config_.sensor_pitch + base_pitch, config_.sensor_roll + base_roll},
+          out);
+}
+
+void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out)
+{
   const auto t0 = Clock::now();
   if (depth.empty())
     throw std::invalid_argument("depth image is empty: expected a " + std::to_string(camera_.width) + "x" +
@@ -229,19 +241,24 @@ void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll
       << camera_.width << "x" << camera_.height;
     throw std::invalid_argument(s.str());
   }
-  const double pitch = config_.sensor_pitch + base_pitch;
-  const double roll = config_.sensor_roll + base_roll;
-  if (!std::isfinite(base_pitch) || !std::isfinite(base_roll) || std::fabs(pitch) > kHalfPi + 1e-9 ||
+  const double pitch = pose.pitch, roll = pose.roll, height = pose.height;
+  if (!std::isfinite(pitch) || !std::isfinite(roll) || std::fabs(pitch) > kHalfPi + 1e-9 ||
       std::fabs(roll) > kHalfPi + 1e-9)
   {
     std::ostringstream s;
-    s << "pose: base_pitch = " << base_pitch << " rad, base_roll = " << base_roll
-      << " rad give a total pitch of " << pitch << " rad and roll of " << roll
-      << " rad: expected finite values with |sensor + base| <= pi/2";
+    s << "pose: pitch = " << pitch << " rad, roll = " << roll
+      << " rad (sensor + base): expected finite values with |pitch|, |roll| <= pi/2";
+    throw std::invalid_argument(s.str());
+  }
+  if (!(std::isfinite(height) && height > 0.0 && height < config_.ceiling_height))
+  {
+    std::ostringstream s;
+    s << "pose: height = " << height << " m: expected a sensor height > 0 and below ceiling_height = "
+      << config_.ceiling_height << " m";
     throw std::invalid_argument(s.str());
   }
 
-  if (planes_.update(camera_, config_, pitch, roll))
+  if (planes_.update(camera_, config_, height, pitch, roll))
     projector_.setPose(pitch, roll);
   const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : (type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32);
   if (!lut_valid_ || enc != lut_encoding_)

@@ -6,15 +6,15 @@
 namespace kinect_pipeline
 {
 
-bool PlaneModel::update(const Camera& camera, const Config& config, double pitch, double roll)
+bool PlaneModel::update(const Camera& camera, const Config& config, double height, double pitch, double roll)
 {
   const Geometry geometry = config.geometry;
-  if (valid_ && camera == camera_ && geometry == geometry_ && height_ == config.sensor_height &&
+  if (valid_ && camera == camera_ && geometry == geometry_ && height_ == height &&
       ceiling_ == config.ceiling_height && pitch_ == pitch && roll_ == roll)
     return false;
   camera_ = camera;
   geometry_ = geometry;
-  height_ = config.sensor_height;
+  height_ = height;
   ceiling_ = config.ceiling_height;
   pitch_ = pitch;
   roll_ = roll;

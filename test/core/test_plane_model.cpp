@@ -33,7 +33,7 @@ TEST_P(ExactPlanes, MatchRayPlaneIntersection)
   cfg.sensor_height = 1.1;
   cfg.ceiling_height = 2.0;
   PlaneModel m;
-  ASSERT_TRUE(m.update(cam, cfg, pitch, roll));
+  ASSERT_TRUE(m.update(cam, cfg, cfg.sensor_height, pitch, roll));
   for (int r = 0; r < cam.height; r += 7)
     for (int u = 0; u < cam.width; u += 13)
     {
@@ -47,7 +47,7 @@ TEST_P(ExactPlanes, MatchRayPlaneIntersection)
       EXPECT_DOUBLE_EQ(m.floorDepth(0, r), m.floorDepth(cam.width - 1, r));
   }
   // Unchanged pose: nothing recomputed.
-  EXPECT_FALSE(m.update(cam, cfg, pitch, roll));
+  EXPECT_FALSE(m.update(cam, cfg, cfg.sensor_height, pitch, roll));
 }
 
 INSTANTIATE_TEST_SUITE_P(Poses, ExactPlanes,
@@ -61,7 +61,7 @@ TEST(PlaneModel, StraightDownSeesFloorEverywhereAndNoCeiling)
   const Camera cam = kinect();
   Config cfg;
   PlaneModel m;
-  m.update(cam, cfg, M_PI / 2, 0.0);
+  m.update(cam, cfg, cfg.sensor_height, M_PI / 2, 0.0);
   for (int r = 0; r < cam.height; r += 5)
     for (int u = 0; u < cam.width; u += 5)
     {
@@ -76,7 +76,7 @@ TEST(PlaneModel, LevelCameraUpperRowsNeverMeetTheFloor)
   const Camera cam = kinect();
   Config cfg;
   PlaneModel m;
-  m.update(cam, cfg, 0.0, 0.0);
+  m.update(cam, cfg, cfg.sensor_height, 0.0, 0.0);
   for (int r = 0; r <= 211; ++r)
     EXPECT_TRUE(std::isinf(m.floorDepth(100, r))) << r;
   for (int r = 212; r < cam.height; ++r)
@@ -92,7 +92,7 @@ TEST(PlaneModel, ThesisModeReproducesEquations410To418)
   cfg.ceiling_height = 2.0;
   const double pitch = 0.26;
   PlaneModel m;
-  m.update(cam, cfg, pitch, 0.05);  // roll is ignored in thesis mode
+  m.update(cam, cfg, cfg.sensor_height, pitch, 0.05);  // roll is ignored in thesis mode
   const double vfov = 60 * M_PI / 180;
   for (int r = 0; r < cam.height; ++r)
   {
@@ -118,7 +118,7 @@ TEST(PlaneModel, ThesisIsAnApproximationOfExact)
   Config exact, thesis;
   thesis.geometry = Geometry::kThesis;
   PlaneModel a, b;
-  a.update(cam, exact, 0.4, 0.0);
-  b.update(cam, thesis, 0.4, 0.0);
+  a.update(cam, exact, exact.sensor_height, 0.4, 0.0);
+  b.update(cam, thesis, thesis.sensor_height, 0.4, 0.0);
   EXPECT_LT(b.floorDepth(256, 300), a.floorDepth(256, 300));
 }

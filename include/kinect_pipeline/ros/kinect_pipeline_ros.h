@@ -1,0 +1,137 @@
+/**
+ * @file kinect_pipeline_ros.h
+ * @brief The ROS 1 skin over the core, shared by the nodelet and the standalone node.
+ */
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <boost/thread/recursive_mutex.hpp>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <diagnostic_updater/publisher.h>
+#include <dynamic_reconfigure/server.h>
+#include <image_transport/image_transport.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/Imu.h>
+#include <std_msgs/Float64.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "kinect_pipeline/KinectPipelineConfig.h"
+#include "kinect_pipeline/pipeline.h"
+
+namespace kinect_pipeline
+{
+
+/** Everything a frame needs from the parameters, swapped in whole between frames. */
+struct NodeSettings
+{
+  Config core;
+  std::string pose_source = "tf";  ///< tf | imu | pitch_topic | static
+  std::string base_frame = "base_footprint";
+  double base_frame_height = 0.0;
+  std::string scan_frame = "kinect2_scan";
+  double tf_timeout = 0.03;
+  std::string pose_fallback = "static";  ///< static | last | drop
+  double pose_max_age = 0.5;
+};
+
+/**
+ * @brief Settings from a dynamic_reconfigure config: validated as a whole.
+ * @throw std::invalid_argument naming the field(s) and value(s) for values or combinations the core refuses.
+ */
+NodeSettings settingsFromConfig(const KinectPipelineConfig& c);
+
+/** Why a frame was dropped (counted and reported in diagnostics). */
+enum class DropReason : int
+{
+  kEncoding = 0,
+  kImage,
+  kCameraInfo,
+  kSize,
+  kNoPose,
+  kStamp,
+  kProcessing,
+  kCount
+};
+const char* toString(DropReason r);
+
+/**
+ * Subscribes a depth image + camera_info, runs the core at the pose of the image's stamp and publishes the
+ * scan, the cleaned depth image and (when someone listens) a debug image of the labels.
+ *
+ * Topics (node namespace, remappable): in `image` (+ its `camera_info`), `imu`, `base_pitch`; out `scan`,
+ * `image_processed`, `image_labels`, `/diagnostics`; tf: broadcasts base_frame -> scan_frame.
+ */
+class KinectPipelineRos
+{
+public:
+  /** @param name used in log messages */
+  KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
+  ~KinectPipelineRos();
+
+  /** Frames processed / dropped so far (for tests and diagnostics). */
+  std::uint64_t framesOut() const { return frames_out_; }
+
+private:
+  void imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  void reconfigureCb(KinectPipelineConfig& config, uint32_t level);
+  void imuCb(const sensor_msgs::ImuConstPtr& msg);
+  void pitchCb(const std_msgs::Float64ConstPtr& msg);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void drop(DropReason reason, const std::string& message);
+  /** @return false when the frame must be dropped; @p why says what happened otherwise (fallbacks). */
+  bool poseFor(const NodeSettings& s, const std_msgs::Header& header, SensorPose& pose, double& yaw,
+               bool& have_position, geometry_msgs::Vector3& position);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string name_;
+  image_transport::ImageTransport it_;
+  image_transport::CameraSubscriber sub_;
+  image_transport::Publisher depth_pub_, debug_pub_;
+  ros::Publisher scan_pub_;
+  ros::Subscriber imu_sub_, pitch_sub_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+
+  boost::recursive_mutex reconfigure_mutex_;
+  std::unique_ptr<dynamic_reconfigure::Server<KinectPipelineConfig>> reconfigure_;
+
+  std::mutex settings_mutex_;  // guards pending_ and the base pose of the topics
+  std::shared_ptr<const NodeSettings> pending_;
+  std::shared_ptr<const NodeSettings> active_;  // only the frame callback touches it
+  double topic_pitch_ = 0.0, topic_roll_ = 0.0;
+  ros::Time topic_stamp_;
+  bool have_topic_pose_ = false;
+
+  std::unique_ptr<Pipeline> pipeline_;
+  FrameResult result_;
+  cv::Mat swap_buffer_;
+  Camera camera_;
+  bool last_pose_valid_ = false;
+  SensorPose last_pose_{};
+  double last_yaw_ = 0.0;
+  ros::Time last_pose_stamp_, last_stamp_;
+
+  diagnostic_updater::Updater diagnostics_;
+  double min_freq_ = 1.0, max_freq_ = 60.0;
+  diagnostic_updater::FrequencyStatus input_freq_;
+  std::mutex stats_mutex_;
+  std::atomic<std::uint64_t> frames_in_{0}, frames_out_{0};
+  std::array<std::uint64_t, static_cast<int>(DropReason::kCount)> drops_{};
+  std::uint64_t pose_fallbacks_ = 0;
+  std::string last_problem_;
+  double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
+  std::array<std::uint64_t, kNumLabels> label_totals_{};
+};
+
+}  // namespace kinect_pipeline
