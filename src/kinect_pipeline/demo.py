@@ -16,15 +16,6 @@ from . import _core, kinect_v2_camera
 from .metrics import FrameQuality, frame_quality, ideal_scan
 from .scenes import Frame, Scene, lab_scene, render_frame
 
-#: RGB of each label in the pictures (thesis fig 4.17a: floor green, ceiling blue).
-LABEL_COLOURS = {
-    1: (0.0, 0.0, 0.0),  # invalid: black
-    2: (0.1, 0.75, 0.2),  # floor: green
-    3: (0.15, 0.35, 0.95),  # above the ceiling plane: blue
-    4: (0.9, 0.1, 0.6),  # below the floor: magenta
-}
-
-
 @dataclass
 class SegwayMotion:
     """Base pitch of a Segway driving: a slow oscillation plus a jerk (a sudden stop) [rad]."""
@@ -49,15 +40,6 @@ def progress(items: Iterable[Any], total: int, desc: str) -> Iterator[Any]:
         yield from items
         return
     yield from tqdm(items, total=total, desc=desc, unit="frame", dynamic_ncols=True, mininterval=0.5)
-
-
-def colour_labels(depth_m: np.ndarray, labels: np.ndarray, max_depth: float) -> np.ndarray:
-    """RGB picture: kept pixels as grey depth (near = bright), removed ones in their label's colour."""
-    grey = 1.0 - np.clip(np.nan_to_num(depth_m, nan=max_depth, posinf=max_depth) / max_depth, 0, 1)
-    rgb = np.repeat(grey[..., None], 3, axis=2)
-    for label, colour in LABEL_COLOURS.items():
-        rgb[labels == label] = colour
-    return rgb
 
 
 def to_metres(depth: np.ndarray, max_depth: float) -> np.ndarray:
@@ -101,12 +83,13 @@ def plot_frame(frame: Frame, res: _core.Result, max_depth: float, path: Path, ti
         a.set_title(name)
         a.axis("off")
     fig.colorbar(im, ax=ax[:2].tolist(), shrink=0.8, label="depth [m]")
-    ax[2].imshow(colour_labels(raw, res.labels, 8.0))
+    ax[2].imshow(_core.colour_labels(res.depth, res.labels, max_depth))
     ax[2].set_title("labels")
     ax[2].axis("off")
     names = {1: "invalid", 2: "floor", 3: "above ceiling plane", 4: "below floor"}
     ax[2].legend(
-        handles=[Patch(color=LABEL_COLOURS[k], label=v) for k, v in names.items()] + [Patch(color="0.6", label="kept")],
+        handles=[Patch(color=np.array(_core.colour_labels(np.zeros((1, 1), np.uint16), np.full((1, 1), k, np.uint8)))[0, 0] / 255,
+                       label=v) for k, v in names.items()] + [Patch(color="0.6", label="kept")],
         loc="lower center",
         bbox_to_anchor=(0.5, -0.22),
         ncol=3,

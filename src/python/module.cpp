@@ -14,6 +14,7 @@
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/synthetic.h"
 #include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/visualize.h"
 
 namespace py = pybind11;
 using namespace kinect_pipeline;
@@ -419,6 +420,22 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("metres"), py::arg("encoding"), py::arg("max_depth") = 12.0,
       "Float metres -> 8UC1 normalised / 16UC1 mm / 32FC1 (unknown -> 0, NaN kept for float).");
+  m.def(
+      "colour_labels",
+      [](const py::object& depth, const py::object& labels, double max_depth) {
+        py::object keep_d, keep_l;
+        cv::Mat d = asMat(depth, "depth", keep_d);
+        cv::Mat l = asMat(labels, "labels", keep_l);
+        cv::Mat rgb;
+        colourLabels(d, l, max_depth, rgb);
+        py::array_t<std::uint8_t> out({rgb.rows, rgb.cols, 3});
+        for (int r = 0; r < rgb.rows; ++r)
+          std::memcpy(out.mutable_data(r, 0, 0), rgb.ptr(r), static_cast<std::size_t>(rgb.cols) * 3);
+        return out;
+      },
+      py::arg("depth"), py::arg("labels"), py::arg("max_depth") = 12.0,
+      "RGB picture of the labels over the depth (as the ROS debug image): kept grey by depth, floor green, "
+      "above the ceiling plane blue, below the floor magenta, invalid black.");
   m.def(
       "morph_open",
       [](const py::object& img, int ksize, const std::string& shape) {

@@ -106,6 +106,7 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   diagnostics_.setHardwareID(name_);
   diagnostics_.add(input_freq_);
   diagnostics_.add("processing", this, &KinectPipelineRos::diagnose);
+  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_.update(); });
   ROS_INFO("%s: listening on %s (+ camera_info), publishing %s", name_.c_str(), sub_.getTopic().c_str(),
            scan_pub_.getTopic().c_str());
 }

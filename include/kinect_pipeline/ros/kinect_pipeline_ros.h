@@ -123,6 +123,7 @@ private:
   ros::Time last_pose_stamp_, last_stamp_;
 
   diagnostic_updater::Updater diagnostics_;
+  ros::WallTimer diagnostics_timer_;  // diagnostics keep coming when every frame is dropped
   double min_freq_ = 1.0, max_freq_ = 60.0;
   diagnostic_updater::FrequencyStatus input_freq_;
   std::mutex stats_mutex_;

@@ -1,0 +1,234 @@
+// The ROS boundary on its own: messages <-> core types (no master needed).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <sensor_msgs/image_encodings.h>
+#include <tf2/LinearMath/Matrix3x3.h>
+#include <tf2/LinearMath/Quaternion.h>
+
+#include "kinect_pipeline/ros/conversions.h"
+#include "kinect_pipeline/ros/kinect_pipeline_ros.h"
+
+using namespace kinect_pipeline;
+using namespace kinect_pipeline::conversions;
+
+namespace
+{
+sensor_msgs::CameraInfo info(double fx = 365.0)
+{
+  sensor_msgs::CameraInfo i;
+  i.width = 512;
+  i.height = 424;
+  i.K = {fx, 0, 255.5, 0, 366.0, 211.5, 0, 0, 1};
+  return i;
+}
+
+template <typename F>
+std::string message(F f)
+{
+  try
+  {
+    f();
+  }
+  catch (const std::invalid_argument& e)
+  {
+    return e.what();
+  }
+  return "no exception";
+}
+
+// The optical frame of a sensor with the given pose in a z-up base frame (same convention as the core).
+geometry_msgs::Transform opticalTransform(double height, double pitch, double roll, double yaw)
+{
+  tf2::Matrix3x3 body;
+  body.setRPY(roll, pitch, yaw);
+  const tf2::Matrix3x3 body_from_optical(0, 0, 1, -1, 0, 0, 0, -1, 0);
+  tf2::Quaternion q;
+  (body * body_from_optical).getRotation(q);
+  geometry_msgs::Transform t;
+  t.translation.x = 0.2;
+  t.translation.z = height;
+  t.rotation.x = q.x();
+  t.rotation.y = q.y();
+  t.rotation.z = q.z();
+  t.rotation.w = q.w();
+  return t;
+}
+}  // namespace
+
+TEST(Conversions, CameraFromInfo)
+{
+  const Camera c = cameraFromInfo(info());
+  EXPECT_EQ(c.width, 512);
+  EXPECT_EQ(c.height, 424);
+  EXPECT_DOUBLE_EQ(c.fx, 365.0);
+  EXPECT_DOUBLE_EQ(c.fy, 366.0);
+  EXPECT_DOUBLE_EQ(c.cx, 255.5);
+  EXPECT_DOUBLE_EQ(c.cy, 211.5);
+  const std::string m = message([] { cameraFromInfo(info(0.0)); });
+  EXPECT_NE(m.find("K[0]"), std::string::npos) << m;
+  EXPECT_NE(m.find("uncalibrated"), std::string::npos) << m;
+  auto bad = info();
+  bad.K[4] = NAN;
+  EXPECT_NE(message([&] { cameraFromInfo(bad); }).find("fy"), std::string::npos);
+}
+
+TEST(Conversions, DepthImagesAreViewedInPlace)
+{
+  for (auto [encoding, type, elem] : {std::tuple{"16UC1", CV_16UC1, 2}, {"mono16", CV_16UC1, 2}, {"32FC1", CV_32FC1, 4},
+                                      {"8UC1", CV_8UC1, 1}, {"mono8", CV_8UC1, 1}})
+  {
+    sensor_msgs::Image img;
+    img.encoding = encoding;
+    img.width = 4;
+    img.height = 3;
+    img.step = 4 * elem + 8;  // padded rows
+    img.data.assign(img.step * img.height, 1);
+    cv::Mat buffer;
+    const cv::Mat m = depthFromImage(img, buffer);
+    EXPECT_EQ(m.type(), type);
+    EXPECT_EQ(m.data, img.data.data()) << "not zero-copy for " << encoding;
+    EXPECT_EQ(m.step[0], img.step);
+  }
+}
+
+TEST(Conversions, OtherByteOrderIsSwapped)
+{
+  sensor_msgs::Image img;
+  img.encoding = "16UC1";
+  img.width = 2;
+  img.height = 1;
+  img.step = 4;
+  img.is_bigendian = 1;
+  img.data = {0x03, 0xE8, 0x07, 0xD0};  // 1000 and 2000, big-endian
+  cv::Mat buffer;
+  const cv::Mat m = depthFromImage(img, buffer);
+  EXPECT_EQ(m.at<std::uint16_t>(0, 0), 1000);
+  EXPECT_EQ(m.at<std::uint16_t>(0, 1), 2000);
+}
+
+TEST(Conversions, MalformedImagesAreRefusedWithTheValues)
+{
+  sensor_msgs::Image img;
+  img.encoding = "rgb8";
+  img.width = 4;
+  img.height = 3;
+  img.step = 12;
+  img.data.resize(36);
+  cv::Mat buffer;
+  EXPECT_NE(message([&] { depthFromImage(img, buffer); }).find("'rgb8'"), std::string::npos);
+  EXPECT_FALSE(isSupportedEncoding("rgb8"));
+  img.encoding = "16UC1";
+  img.step = 6;
+  EXPECT_NE(message([&] { depthFromImage(img, buffer); }).find("step 6"), std::string::npos);
+  img.step = 8;
+  img.data.resize(20);
+  EXPECT_NE(message([&] { depthFromImage(img, buffer); }).find("20 bytes"), std::string::npos);
+  img.data.clear();
+  EXPECT_NE(message([&] { depthFromImage(img, buffer); }).find("empty"), std::string::npos);
+}
+
+TEST(Conversions, PoseFromTheOpticalFramesTransform)
+{
+  for (double pitch : {0.0, 0.26, -0.3, 1.2})
+    for (double roll : {0.0, 0.035, -0.1})
+      for (double yaw : {0.0, 0.7})
+      {
+        double got_yaw;
+        const SensorPose p = poseFromOpticalTransform(opticalTransform(1.1, pitch, roll, yaw), 0.05, got_yaw);
+        EXPECT_NEAR(p.height, 1.15, 1e-12);
+        EXPECT_NEAR(p.pitch, pitch, 1e-9);
+        EXPECT_NEAR(p.roll, roll, 1e-9);
+        EXPECT_NEAR(got_yaw, yaw, 1e-9);
+      }
+}
+
+TEST(Conversions, PitchRollOfAnImu)
+{
+  tf2::Quaternion q;
+  q.setRPY(0.02, -0.1, 1.0);
+  geometry_msgs::Quaternion m;
+  m.x = q.x();
+  m.y = q.y();
+  m.z = q.z();
+  m.w = q.w();
+  double pitch, roll;
+  pitchRollFromQuaternion(m, pitch, roll);
+  EXPECT_NEAR(pitch, -0.1, 1e-9);
+  EXPECT_NEAR(roll, 0.02, 1e-9);
+}
+
+TEST(Conversions, ScanAndImagesOut)
+{
+  ScanData s;
+  s.angle_min = -0.5f;
+  s.angle_max = 0.5f;
+  s.angle_increment = 0.25f;
+  s.range_min = 0.1f;
+  s.range_max = 10.0f;
+  s.ranges = {1.0f, INFINITY, -INFINITY, NAN, 2.0f};
+  s.intensities = {1.0f, 1.0f, 1.0f, 0.0f, 0.5f};
+  std_msgs::Header h;
+  h.stamp = ros::Time(12, 34);
+  h.frame_id = "kinect2_depth_optical_frame";
+  sensor_msgs::LaserScan out;
+  toLaserScan(s, h, "kinect2_scan", 0.033, out);
+  EXPECT_EQ(out.header.frame_id, "kinect2_scan");  // never the optical frame
+  EXPECT_EQ(out.header.stamp, h.stamp);
+  EXPECT_FLOAT_EQ(out.angle_min, -0.5f);
+  ASSERT_EQ(out.ranges.size(), 5u);
+  EXPECT_TRUE(std::isinf(out.ranges[1]) && out.ranges[1] > 0);
+  EXPECT_TRUE(std::isinf(out.ranges[2]) && out.ranges[2] < 0);
+  EXPECT_TRUE(std::isnan(out.ranges[3]));
+  EXPECT_EQ(out.intensities, s.intensities);
+
+  cv::Mat depth(3, 4, CV_16UC1, cv::Scalar(1234)), labels(3, 4, CV_8UC1, cv::Scalar(2));
+  sensor_msgs::Image img;
+  toImage(depth, h, "16UC1", img);
+  EXPECT_EQ(img.step, 8u);
+  EXPECT_EQ(img.data.size(), 24u);
+  cv::Mat buffer;
+  EXPECT_EQ(depthFromImage(img, buffer).at<std::uint16_t>(2, 3), 1234);
+  toDebugImage(depth, labels, 12.0, h, img);
+  EXPECT_EQ(img.encoding, "rgb8");
+  EXPECT_EQ(img.data.size(), 36u);
+  EXPECT_EQ(img.data[1], 191);  // floor green
+}
+
+TEST(Settings, RefusesInconsistentParametersNamingThem)
+{
+  KinectPipelineConfig c = KinectPipelineConfig::__getDefault__();
+  EXPECT_NO_THROW(settingsFromConfig(c));
+  c.ceiling_height = 0.5;
+  EXPECT_NE(message([&] { settingsFromConfig(c); }).find("ceiling_height"), std::string::npos);
+  c = KinectPipelineConfig::__getDefault__();
+  c.range_min = 5.0;
+  c.range_max = 2.0;
+  EXPECT_NE(message([&] { settingsFromConfig(c); }).find("range_max"), std::string::npos);
+  c = KinectPipelineConfig::__getDefault__();
+  c.threshold_curve = "1:0.1";
+  EXPECT_NE(message([&] { settingsFromConfig(c); }).find("threshold_curve"), std::string::npos);
+  c = KinectPipelineConfig::__getDefault__();
+  c.scan_frame = c.base_frame;
+  EXPECT_NE(message([&] { settingsFromConfig(c); }).find("scan_frame"), std::string::npos);
+}
+
+TEST(Settings, DefaultsAreTheCoresDefaults)
+{
+  const NodeSettings s = settingsFromConfig(KinectPipelineConfig::__getDefault__());
+  const Config d;
+  EXPECT_EQ(s.core.sensor_height, d.sensor_height);
+  EXPECT_EQ(s.core.ceiling_height, d.ceiling_height);
+  EXPECT_EQ(s.core.max_depth, d.max_depth);
+  EXPECT_EQ(s.core.open_kernel_size, d.open_kernel_size);
+  EXPECT_EQ(formatThresholdCurve(s.core.threshold_curve), formatThresholdCurve(d.threshold_curve));
+  EXPECT_EQ(s.core.range_min, d.range_min);
+  EXPECT_EQ(s.core.range_max, d.range_max);
+  EXPECT_EQ(s.core.confidence_window, d.confidence_window);
+  EXPECT_EQ(s.core.confidence_distance, d.confidence_distance);
+  EXPECT_EQ(s.core.min_intensity, d.min_intensity);
+  EXPECT_EQ(s.core.intensity_filter, d.intensity_filter);
+  EXPECT_EQ(s.core.geometry, d.geometry);
+  EXPECT_EQ(s.core.projection, d.projection);
+}
