@@ -18,7 +18,8 @@ APT_PACKAGES=(
   python3-dynamic-reconfigure librostest-dev python3-rostest python3-rospy python3-sensor-msgs python3-cv-bridge
   python3-tf2-ros libopencv-dev libgtest-dev googletest pybind11-dev python3-pybind11 python3-numpy
   python3-opencv python3-pytest python3-matplotlib libdiagnostic-updater-dev libgeometry-msgs-dev
-  python3-rosbag python3-roslaunch python3-rostopic python3-diagnostic-msgs rviz xvfb x11-apps imagemagick
+  python3-rosbag python3-roslaunch python3-rostopic python3-diagnostic-msgs python3-std-srvs rviz xvfb x11-apps
+  imagemagick
 )
 
 install_apt() {

@@ -50,6 +50,14 @@ struct Rendering
 void renderScene(const Camera& camera, double height, double pitch, double roll, const Scene& scene,
                  Rendering& out);
 
+/**
+ * @brief A planar 2-D LiDAR at height @p z (level, at the sensor's x = y = 0) seeing the scene's boxes.
+ * @return one range per beam [m], beam i at angle angle_min + i * increment (counter-clockwise from forward);
+ *         +Inf where no box is hit within @p range_max
+ */
+std::vector<float> renderLidar(const Scene& scene, double z, double angle_min, double increment, int beams,
+                               double range_max);
+
 /** @return the depth noise of the Kinect v2 model, sigma0 + k * (z - 0.4)^2 [m], at depth @p z [m]. */
 inline double kinectSigma(double z, double sigma0 = 0.0015, double k = 0.0019)
 {

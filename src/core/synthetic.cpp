@@ -126,6 +126,30 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
   }
 }
 
+std::vector<float> renderLidar(const Scene& scene, double z, double angle_min, double increment, int beams,
+                               double range_max)
+{
+  if (beams < 1)
+    throw std::invalid_argument("renderLidar: beams = " + std::to_string(beams) + ": expected >= 1");
+  std::vector<float> out(beams, std::numeric_limits<float>::infinity());
+  const Vec3 o{0.0, 0.0, z};
+  for (int i = 0; i < beams; ++i)
+  {
+    const double a = angle_min + i * increment;
+    const Vec3 d{std::cos(a), std::sin(a), 0.0};
+    double best = range_max;
+    for (const Box& b : scene.boxes)
+    {
+      double t_in, t_out;
+      if (slab(o, d, b, t_in, t_out) && t_in > 0.0 && t_in < best)
+        best = t_in;
+    }
+    if (best < range_max)
+      out[i] = static_cast<float>(best);
+  }
+  return out;
+}
+
 void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0, double k, double dropout)
 {
   if (depth.type() != CV_32FC1)

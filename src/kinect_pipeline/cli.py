@@ -35,6 +35,15 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_synth(args: argparse.Namespace) -> int:
+    from .bag import write_sequence_bag
+
+    summary = write_sequence_bag(Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed,
+                                 show_progress=not args.quiet)
+    print(json.dumps(summary))
+    return 0
+
+
 def cmd_bench(args: argparse.Namespace) -> int:
     cmd = [str(_bench_binary()), "--frames", str(args.frames), "--kernel", str(args.kernel), "--projection", args.projection]
     if args.markdown:
@@ -78,6 +87,14 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=1)
     d.set_defaults(func=cmd_demo)
 
+    s = sub.add_parser("synth", help="write a bag of a synthetic Segway sequence (depth, camera_info, tf, LiDAR)")
+    s.add_argument("output", help="bag to write (refused if it exists)")
+    s.add_argument("--frames", type=int, default=30)
+    s.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
+    s.add_argument("--seed", type=int, default=1)
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=cmd_synth)
+
     b = sub.add_parser("bench", help="time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)")
     b.add_argument("--frames", type=int, default=300)
     b.add_argument("--kernel", type=int, default=3)
@@ -98,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args))
-    except (ToolError, ValueError, OSError) as exc:
+    except (ToolError, ValueError, OSError, FileExistsError) as exc:
         print(f"kinect-pipeline {args.command}: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

@@ -402,6 +402,18 @@ PYBIND11_MODULE(_core, m)
       py::arg("depth"), py::arg("seed"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019, py::arg("dropout") = 0.01,
       "Copy of a float32 depth [m] with Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts (+Inf).");
   m.def(
+      "render_lidar",
+      [](const std::vector<std::array<double, 6>>& boxes, double z, double angle_min, double increment, int beams,
+         double range_max) {
+        Scene s;
+        for (const auto& b : boxes)
+          s.boxes.push_back({b[0], b[1], b[2], b[3], b[4], b[5]});
+        return vecToArray(renderLidar(s, z, angle_min, increment, beams, range_max));
+      },
+      py::arg("boxes"), py::arg("z"), py::arg("angle_min"), py::arg("increment"), py::arg("beams"),
+      py::arg("range_max") = 30.0,
+      "Ranges of a level planar LiDAR at height z seeing the boxes (+Inf: nothing within range_max).");
+  m.def(
       "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
       py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,
       "Depth noise of the Kinect v2 model [m] at depth z [m] (numpy-vectorised).");

@@ -1,0 +1,175 @@
+"""ROS 1 bags of synthetic Segway sequences, written with the PyPI ``rosbags`` library (no ROS install needed).
+
+The tf tree is the one of a Segway robot: ``base_footprint`` (on the floor, gravity-aligned) -> ``base_link``
+(pitching about the wheel axle, on /tf every frame) -> ``kinect2_link`` (mounting, /tf_static) ->
+``kinect2_depth_optical_frame`` (/tf_static); a level 2-D LiDAR ``laser`` on ``base_footprint``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import _core, kinect_v2_camera
+from .demo import SegwayMotion, progress
+from .scenes import ENCODINGS, Scene, lab_scene, render_frame
+
+AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
+
+
+@dataclass
+class Rig:
+    """Where the sensors sit on the robot."""
+
+    kinect_xyz: tuple[float, float, float] = (0.10, 0.0, 0.86)  #: kinect2_link in base_link [m]
+    kinect_tilt: float = math.radians(15.0)  #: kinect2_link pitch in base_link [rad], + looks down
+    lidar_height: float = 0.30  #: LiDAR plane above the floor [m]
+    camera_ns: str = "/kinect2"
+    image_topic: str = "/kinect2/sd/image_depth"
+    info_topic: str = "/kinect2/sd/camera_info"
+    lidar_topic: str = "/scan_lidar"
+    optical_frame: str = "kinect2_depth_optical_frame"
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def sensor_pose(self, base_pitch: float) -> tuple[float, float, float, float]:
+        """(x, z, total pitch) of the optical centre in base_footprint for a base pitched by ``base_pitch``,
+        plus the sensor height above the floor (= z)."""
+        x, _, z = self.kinect_xyz
+        z_rel = z - AXLE_HEIGHT
+        c, s = math.cos(base_pitch), math.sin(base_pitch)
+        px = c * x + s * z_rel
+        pz = AXLE_HEIGHT - s * x + c * z_rel
+        return px, pz, self.kinect_tilt + base_pitch, pz
+
+
+def _quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+    return (sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy)
+
+
+# Optical frame in the sensor's body frame (x right, y down, z forward vs x forward, z up).
+_OPTICAL_IN_BODY = (-0.5, 0.5, -0.5, 0.5)
+
+
+def _typestore() -> Any:
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    if "tf2_msgs/msg/TFMessage" not in ts.types:
+        ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
+    return ts
+
+
+def write_sequence_bag(
+    path: Path,
+    frames: int = 30,
+    encoding: str = "16UC1",
+    seed: int = 1,
+    scene: Scene | None = None,
+    rig: Rig | None = None,
+    motion: SegwayMotion | None = None,
+    rate_hz: float = 30.0,
+    start_s: float = 1000.0,
+    max_depth: float = 12.0,
+    show_progress: bool = False,
+) -> dict[str, Any]:
+    """Renders ``frames`` frames of a Segway driving in ``scene`` and writes depth, camera_info, tf and a LiDAR
+    scan to a new bag at ``path`` (written to a temporary file, then renamed). Returns a summary."""
+    if encoding not in ENCODINGS:
+        raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
+    if frames < 1:
+        raise ValueError(f"frames = {frames}: expected >= 1")
+    from rosbags.rosbag1 import Writer
+
+    path = Path(path)
+    if path.exists():
+        raise FileExistsError(f"{path} exists: not overwriting it")
+    scene = scene or lab_scene()
+    rig = rig or Rig()
+    motion = motion or SegwayMotion()
+    cam = kinect_v2_camera()
+    ts = _typestore()
+    T = ts.types
+    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
+    Image, CameraInfo, LaserScan = T["sensor_msgs/msg/Image"], T["sensor_msgs/msg/CameraInfo"], T["sensor_msgs/msg/LaserScan"]
+    TFMessage, TransformStamped = T["tf2_msgs/msg/TFMessage"], T["geometry_msgs/msg/TransformStamped"]
+    Transform, Vector3, Quaternion = T["geometry_msgs/msg/Transform"], T["geometry_msgs/msg/Vector3"], T["geometry_msgs/msg/Quaternion"]
+    RegionOfInterest = T["sensor_msgs/msg/RegionOfInterest"]
+
+    def stamp(t: float) -> Any:
+        sec = int(math.floor(t))
+        return Time(sec=sec, nanosec=int(round((t - sec) * 1e9)) % 1_000_000_000)
+
+    def tf(parent: str, child: str, t: float, xyz: tuple[float, float, float], q: tuple[float, float, float, float]) -> Any:
+        return TransformStamped(
+            header=Header(seq=0, stamp=stamp(t), frame_id=parent),
+            child_frame_id=child,
+            transform=Transform(translation=Vector3(x=xyz[0], y=xyz[1], z=xyz[2]), rotation=Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])),
+        )
+
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    if tmp.exists():
+        tmp.unlink()
+    lidar_beams, lidar_min = 720, -math.pi * 0.75
+    lidar_inc = 1.5 * math.pi / lidar_beams
+    pitches: list[float] = []
+    try:
+        with Writer(tmp) as w:
+            c_img = w.add_connection(rig.image_topic, Image.__msgtype__, typestore=ts)
+            c_info = w.add_connection(rig.info_topic, CameraInfo.__msgtype__, typestore=ts)
+            c_tf = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
+            c_tfs = w.add_connection("/tf_static", TFMessage.__msgtype__, typestore=ts, latching=1)
+            c_lidar = w.add_connection(rig.lidar_topic, LaserScan.__msgtype__, typestore=ts)
+            t0 = start_s
+            static = TFMessage(transforms=[
+                tf("base_link", "kinect2_link", t0, rig.kinect_xyz, _quat_from_rpy(0.0, rig.kinect_tilt, 0.0)),
+                tf("kinect2_link", rig.optical_frame, t0, (0.0, 0.0, 0.0), _OPTICAL_IN_BODY),
+                tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
+            ])
+            w.write(c_tfs, int(t0 * 1e9), ts.serialize_ros1(static, TFMessage.__msgtype__))
+            for i in progress(range(frames), frames, "synth") if show_progress else range(frames):
+                t = t0 + 0.05 + i / rate_hz
+                ns = int(round(t * 1e9))
+                bp = motion.pitch(i)
+                pitches.append(bp)
+                px, _, total_pitch, height = rig.sensor_pose(bp)
+                # The renderer's frame sits under the sensor: move the world by the sensor's x.
+                shifted = Scene(boxes=tuple((b[0] - px, b[1] - px, *b[2:]) for b in scene.boxes),
+                                holes=tuple((h[0] - px, h[1] - px, h[2], h[3]) for h in scene.holes),
+                                hole_depth=scene.hole_depth, ceiling=scene.ceiling)
+                frame = render_frame(cam, shifted, height, total_pitch, 0.0, encoding, seed + i, max_depth)
+                base = TFMessage(transforms=[tf("base_footprint", "base_link", t, (0.0, 0.0, AXLE_HEIGHT), _quat_from_rpy(0.0, bp, 0.0))])
+                w.write(c_tf, ns, ts.serialize_ros1(base, TFMessage.__msgtype__))
+                header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
+                depth = np.ascontiguousarray(frame.depth)
+                img = Image(header=header, height=depth.shape[0], width=depth.shape[1], encoding=encoding,
+                            is_bigendian=0, step=depth.strides[0], data=depth.view(np.uint8).reshape(-1))
+                info = CameraInfo(
+                    header=header, height=cam.height, width=cam.width, distortion_model="plumb_bob",
+                    D=np.zeros(5), K=np.array([cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1.0]),
+                    R=np.eye(3).reshape(-1), P=np.array([cam.fx, 0, cam.cx, 0, 0, cam.fy, cam.cy, 0, 0, 0, 1.0, 0]),
+                    binning_x=0, binning_y=0,
+                    roi=RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+                )
+                w.write(c_info, ns + 1, ts.serialize_ros1(info, CameraInfo.__msgtype__))
+                w.write(c_img, ns + 2, ts.serialize_ros1(img, Image.__msgtype__))
+                lidar_boxes = [(b[0] - 0.2, b[1] - 0.2, *b[2:]) for b in scene.boxes]
+                ranges = _core.render_lidar(lidar_boxes, rig.lidar_height, lidar_min, lidar_inc, lidar_beams, 30.0)
+                scan = LaserScan(header=Header(seq=i, stamp=stamp(t), frame_id="laser"), angle_min=lidar_min,
+                                 angle_max=lidar_min + lidar_inc * (lidar_beams - 1), angle_increment=lidar_inc,
+                                 time_increment=0.0, scan_time=1.0 / rate_hz, range_min=0.05, range_max=30.0,
+                                 ranges=ranges, intensities=np.zeros(0, np.float32))
+                w.write(c_lidar, ns + 3, ts.serialize_ros1(scan, LaserScan.__msgtype__))
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return {"path": str(path), "frames": frames, "encoding": encoding, "image_topic": rig.image_topic,
+            "base_pitch_deg_range": [math.degrees(min(pitches)), math.degrees(max(pitches))]}
