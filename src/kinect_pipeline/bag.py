@@ -26,7 +26,7 @@ AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
 class Rig:
     """Where the sensors sit on the robot."""
 
-    kinect_xyz: tuple[float, float, float] = (0.10, 0.0, 0.86)  #: kinect2_link in base_link [m]
+    kinect_xyz: tuple[float, float, float] = (0.10, 0.0, 0.86)  #: kinect2_link in base_link (axle) [m]
     kinect_tilt: float = math.radians(15.0)  #: kinect2_link pitch in base_link [rad], + looks down
     lidar_height: float = 0.30  #: LiDAR plane above the floor [m]
     camera_ns: str = "/kinect2"
@@ -37,13 +37,12 @@ class Rig:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def sensor_pose(self, base_pitch: float) -> tuple[float, float, float, float]:
-        """(x, z, total pitch) of the optical centre in base_footprint for a base pitched by ``base_pitch``,
-        plus the sensor height above the floor (= z)."""
+        """(x, z, total pitch, height above the floor) of the optical centre in base_footprint for a base pitched
+        by ``base_pitch`` about the wheel axle (base_link's origin)."""
         x, _, z = self.kinect_xyz
-        z_rel = z - AXLE_HEIGHT
         c, s = math.cos(base_pitch), math.sin(base_pitch)
-        px = c * x + s * z_rel
-        pz = AXLE_HEIGHT - s * x + c * z_rel
+        px = c * x + s * z
+        pz = AXLE_HEIGHT - s * x + c * z
         return px, pz, self.kinect_tilt + base_pitch, pz
 
 
