@@ -51,6 +51,16 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
+def cmd_bench_ros(args: argparse.Namespace) -> int:
+    from .bench_ros import report, run
+
+    results = run(frames=args.frames, rate=args.rate, threads=args.threads)
+    print(f"image -> output latency at {args.rate:g} Hz, 512x424 16UC1, {args.frames} frames each, "
+          f"num_threads {args.threads}, same run:")
+    print(report(results))
+    return 0
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Quality of the default configuration on noisy rendered frames at a known pose."""
     import numpy as np
@@ -101,6 +111,12 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--projection", choices=["horizontal", "column"], default="horizontal")
     b.add_argument("--markdown", action="store_true", help="print a Markdown table")
     b.set_defaults(func=cmd_bench)
+
+    r = sub.add_parser("bench-ros", help="image->scan latency and CPU: node, nodelet, bare image_transport relay")
+    r.add_argument("--frames", type=int, default=300)
+    r.add_argument("--rate", type=float, default=30.0, help="frames per second")
+    r.add_argument("--threads", type=int, default=0, help="the pipeline's num_threads (0: OpenMP default)")
+    r.set_defaults(func=cmd_bench_ros)
 
     e = sub.add_parser("evaluate", help="quality of the default config on noisy rendered frames (table)")
     e.add_argument("--frames", type=int, default=8)
