@@ -6,9 +6,8 @@
 #include <stdexcept>
 
 #include <sensor_msgs/image_encodings.h>
-#include <tf2/LinearMath/Matrix3x3.h>
-#include <tf2/LinearMath/Quaternion.h>
 
+#include "kinect_pipeline/pose.h"
 #include "kinect_pipeline/visualize.h"
 
 namespace kinect_pipeline
@@ -115,22 +114,24 @@ cv::Mat depthFromImage(const sensor_msgs::Image& image, cv::Mat& buffer)
   return buffer;
 }
 
+RigidTransform fromMsg(const geometry_msgs::Transform& t)
+{
+  RigidTransform r;
+  r.q = {t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w};
+  r.t = {t.translation.x, t.translation.y, t.translation.z};
+  return r;
+}
+
 SensorPose poseFromOpticalTransform(const geometry_msgs::Transform& t, double base_frame_height, double& yaw)
 {
-  const tf2::Quaternion q(t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w);
-  const tf2::Matrix3x3 base_from_optical(q.normalized());
-  // The sensor body (x forward, y left, z up) expressed in the optical frame (x right, y down, z forward).
-  const tf2::Matrix3x3 optical_from_body(0, -1, 0, 0, 0, -1, 1, 0, 0);
-  const tf2::Matrix3x3 base_from_body = base_from_optical * optical_from_body;
-  double roll, pitch;
-  base_from_body.getRPY(roll, pitch, yaw);
-  return SensorPose{t.translation.z + base_frame_height, pitch, roll};
+  return kinect_pipeline::poseFromOpticalTransform(fromMsg(t), base_frame_height, yaw);
 }
 
 void pitchRollFromQuaternion(const geometry_msgs::Quaternion& q, double& pitch, double& roll)
 {
-  double yaw;
-  tf2::Matrix3x3(tf2::Quaternion(q.x, q.y, q.z, q.w).normalized()).getRPY(roll, pitch, yaw);
+  const auto rpy = rollPitchYaw({q.x, q.y, q.z, q.w});
+  roll = rpy[0];
+  pitch = rpy[1];
 }
 
 void toLaserScan(const ScanData& scan, const std_msgs::Header& header, const std::string& frame_id,

@@ -17,6 +17,7 @@
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/pose.h"
 
 namespace kinect_pipeline
 {
@@ -45,13 +46,16 @@ bool isSupportedEncoding(const std::string& encoding);
 
 /**
  * @brief The sensor's pose relative to the floor from the transform of its optical frame in a gravity-aligned
- *        base frame (REP 103 optical: x right, y down, z forward).
+ *        base frame (REP 103 optical: x right, y down, z forward); see the core's poseFromOpticalTransform().
  * @param base_frame_height height of the base frame's origin above the floor [m]
  * @param[out] yaw heading of the sensor in the base frame [rad], counter-clockwise
  * @return total height [m], pitch (+ looks down) and roll (+ right side down) [rad]
  */
 SensorPose poseFromOpticalTransform(const geometry_msgs::Transform& base_to_optical, double base_frame_height,
                                     double& yaw);
+
+/** @return the core's transform of a transform message. */
+RigidTransform fromMsg(const geometry_msgs::Transform& t);
 
 /** @brief Pitch (+ nose down) and roll (+ right side down) of an orientation quaternion (REP 103 body). */
 void pitchRollFromQuaternion(const geometry_msgs::Quaternion& q, double& pitch, double& roll);
