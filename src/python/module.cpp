@@ -12,6 +12,7 @@
 #include "kinect_pipeline/config.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/pose.h"
 #include "kinect_pipeline/synthetic.h"
 #include "kinect_pipeline/threshold_curve.h"
 #include "kinect_pipeline/visualize.h"
@@ -106,6 +107,50 @@ struct PyPipeline
 };
 
 const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
+
+template <typename F>
+PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
+{
+  py::object keep;
+  cv::Mat in = asMat(depth, "depth", keep);
+  PyResult res;
+  // Outputs are fresh numpy arrays; the core writes straight into them.
+  py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
+  res.depth = py::array(dt, {in.rows, in.cols});
+  res.labels = py::array(py::dtype::of<std::uint8_t>(), {in.rows, in.cols});
+  void* depth_out = res.depth.mutable_data();  // numpy calls need the GIL
+  void* labels_out = res.labels.mutable_data();
+  FrameResult fr;
+  {
+    py::gil_scoped_release release;
+    std::lock_guard<std::mutex> lock(self.mutex);
+    self.result.depth = cv::Mat(in.rows, in.cols, in.type(), depth_out);
+    self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, labels_out);
+    call(in, self.result);
+    fr.scan = self.result.scan;  // copied under the lock: another thread may process next
+    fr.counts = self.result.counts;
+    fr.times = self.result.times;
+    if (self.result.depth.data != depth_out || self.result.labels.data != labels_out)
+      throw std::logic_error("kinect_pipeline: the core reallocated its output");
+  }
+  res.ranges = vecToArray(fr.scan.ranges);
+  res.intensities = vecToArray(fr.scan.intensities);
+  res.angle_min = fr.scan.angle_min;
+  res.angle_max = fr.scan.angle_max;
+  res.angle_increment = fr.scan.angle_increment;
+  res.range_min = fr.scan.range_min;
+  res.range_max = fr.scan.range_max;
+  for (int k = 0; k < kNumLabels; ++k)
+    res.counts[kLabelNames[k]] = fr.counts[k];
+  res.times["prepare"] = fr.times.prepare;
+  res.times["erode"] = fr.times.erode;
+  res.times["classify_scan"] = fr.times.classify_scan;
+  res.times["confidence"] = fr.times.confidence;
+  res.times["total"] = fr.times.total;
+  return res;
+}
+
+
 
 void setConfigField(Config& c, const std::string& key, const py::handle& v)
 {
@@ -257,46 +302,22 @@ PYBIND11_MODULE(_core, m)
       .def(
           "process",
           [](PyPipeline& self, const py::object& depth, double base_pitch, double base_roll) {
-            py::object keep;
-            cv::Mat in = asMat(depth, "depth", keep);
-            PyResult res;
-            // Outputs are fresh numpy arrays; the core writes straight into them.
-            py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
-            res.depth = py::array(dt, {in.rows, in.cols});
-            res.labels = py::array(py::dtype::of<std::uint8_t>(), {in.rows, in.cols});
-            void* depth_out = res.depth.mutable_data();  // numpy calls need the GIL
-            void* labels_out = res.labels.mutable_data();
-            FrameResult fr;
-            {
-              py::gil_scoped_release release;
-              std::lock_guard<std::mutex> lock(self.mutex);
-              self.result.depth = cv::Mat(in.rows, in.cols, in.type(), depth_out);
-              self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, labels_out);
-              self.pipe.process(in, base_pitch, base_roll, self.result);
-              fr.scan = self.result.scan;  // copied under the lock: another thread may process next
-              fr.counts = self.result.counts;
-              fr.times = self.result.times;
-              if (self.result.depth.data != depth_out || self.result.labels.data != labels_out)
-                throw std::logic_error("kinect_pipeline: the core reallocated its output");
-            }
-            res.ranges = vecToArray(fr.scan.ranges);
-            res.intensities = vecToArray(fr.scan.intensities);
-            res.angle_min = fr.scan.angle_min;
-            res.angle_max = fr.scan.angle_max;
-            res.angle_increment = fr.scan.angle_increment;
-            res.range_min = fr.scan.range_min;
-            res.range_max = fr.scan.range_max;
-            for (int k = 0; k < kNumLabels; ++k)
-              res.counts[kLabelNames[k]] = fr.counts[k];
-            res.times["prepare"] = fr.times.prepare;
-            res.times["erode"] = fr.times.erode;
-            res.times["classify_scan"] = fr.times.classify_scan;
-            res.times["confidence"] = fr.times.confidence;
-            res.times["total"] = fr.times.total;
-            return res;
+            return runFrame(self, depth, [&](const cv::Mat& in, FrameResult& fr) {
+              self.pipe.process(in, base_pitch, base_roll, fr);
+            });
           },
           py::arg("depth"), py::arg("base_pitch") = 0.0, py::arg("base_roll") = 0.0,
           "Process one frame: depth is a 2-D uint8 (normalised), uint16 (mm) or float32 (m) array.")
+      .def(
+          "process_pose",
+          [](PyPipeline& self, const py::object& depth, double height, double pitch, double roll) {
+            return runFrame(self, depth, [&](const cv::Mat& in, FrameResult& fr) {
+              self.pipe.process(in, SensorPose{height, pitch, roll}, fr);
+            });
+          },
+          py::arg("depth"), py::arg("height"), py::arg("pitch"), py::arg("roll") = 0.0,
+          "Process one frame at a whole pose (e.g. from tf): height [m], pitch and roll [rad] of the sensor; "
+          "sensor_height/pitch/roll of the config are not used.")
       .def("reset", [](PyPipeline& self) { self.pipe.reset(); }, "Forget the confidence history.")
       .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
@@ -401,6 +422,33 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("depth"), py::arg("seed"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019, py::arg("dropout") = 0.01,
       "Copy of a float32 depth [m] with Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts (+Inf).");
+  using Tf = std::pair<std::array<double, 4>, std::array<double, 3>>;
+  auto toRigid = [](const Tf& t) {
+    RigidTransform r;
+    r.q = t.first;
+    r.t = t.second;
+    return r;
+  };
+  auto fromRigid = [](const RigidTransform& r) { return Tf{r.q, r.t}; };
+  m.def(
+      "compose_transforms", [=](const Tf& a, const Tf& b) { return fromRigid(toRigid(a) * toRigid(b)); },
+      py::arg("a"), py::arg("b"),
+      "a * b for transforms given as ((qx, qy, qz, qw), (x, y, z)): parent<-child of a, then of b.");
+  m.def(
+      "invert_transform", [=](const Tf& a) { return fromRigid(toRigid(a).inverse()); }, py::arg("a"));
+  m.def(
+      "interpolate_transform", [=](const Tf& a, const Tf& b, double f) { return fromRigid(interpolate(toRigid(a), toRigid(b), f)); },
+      py::arg("a"), py::arg("b"), py::arg("f"), "Linear translation, spherical rotation; f in [0, 1].");
+  m.def(
+      "pose_from_optical_transform",
+      [=](const Tf& base_from_optical, double base_frame_height) {
+        double yaw;
+        const SensorPose p = poseFromOpticalTransform(toRigid(base_from_optical), base_frame_height, yaw);
+        return py::make_tuple(p.height, p.pitch, p.roll, yaw);
+      },
+      py::arg("base_from_optical"), py::arg("base_frame_height") = 0.0,
+      "(height, pitch, roll, yaw) of the sensor from its optical frame's transform in a gravity-aligned base frame.");
+  m.def("roll_pitch_yaw", &rollPitchYaw, py::arg("q"), "(roll, pitch, yaw) of a quaternion (x, y, z, w).");
   m.def(
       "render_lidar",
       [](const std::vector<std::array<double, 6>>& boxes, double z, double angle_min, double increment, int beams,
