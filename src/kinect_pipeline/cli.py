@@ -51,6 +51,27 @@ def cmd_bench(args: argparse.Namespace) -> int:
     return subprocess.call(cmd)
 
 
+def cmd_replay(args: argparse.Namespace) -> int:
+    from .replay import ReplayError, ReplayOptions, format_report, replay
+
+    config: dict[str, object] = {}
+    for item in args.param or []:
+        key, _, value = item.partition("=")
+        try:
+            config[key] = json.loads(value)
+        except json.JSONDecodeError:
+            config[key] = value
+    opts = ReplayOptions(depth_topic=args.depth_topic, info_topic=args.info_topic, base_frame=args.base_frame,
+                         base_frame_height=args.base_frame_height, pose_fallback=args.pose_fallback,
+                         skip_bad=args.skip_bad, config=config)
+    try:
+        report = replay(Path(args.input), Path(args.output), opts, show_progress=not args.quiet)
+    except ReplayError as exc:
+        raise ToolError(str(exc)) from exc
+    print(format_report(report))
+    return 0
+
+
 def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
@@ -111,6 +132,20 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--projection", choices=["horizontal", "column"], default="horizontal")
     b.add_argument("--markdown", action="store_true", help="print a Markdown table")
     b.set_defaults(func=cmd_bench)
+
+    rp = sub.add_parser("replay", help="run the pipeline over a bag at the pose its tf gives; write scan + cleaned image")
+    rp.add_argument("input", help="ROS 1 bag with a depth image, its camera_info and tf")
+    rp.add_argument("-o", "--output", required=True, help="new bag: the input's messages plus the outputs")
+    rp.add_argument("--depth-topic", help="depth Image topic (default: the only one with 'depth' in its name)")
+    rp.add_argument("--info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)")
+    rp.add_argument("--base-frame", default="base_footprint", help="gravity-aligned frame on the floor")
+    rp.add_argument("--base-frame-height", type=float, default=0.0, help="its origin's height above the floor [m]")
+    rp.add_argument("--pose-fallback", choices=["static", "skip"], default="static",
+                   help="frames without tf: static pose from the parameters, or skip them")
+    rp.add_argument("--skip-bad", action="store_true", help="skip damaged data instead of stopping")
+    rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
+    rp.add_argument("--quiet", action="store_true", help="no progress bar")
+    rp.set_defaults(func=cmd_replay)
 
     r = sub.add_parser("bench-ros", help="image->scan latency and CPU: node, nodelet, bare image_transport relay")
     r.add_argument("--frames", type=int, default=300)

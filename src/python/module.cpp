@@ -25,11 +25,14 @@ namespace
 
 int cvTypeOf(const py::dtype& dt)
 {
-  if (dt.is(py::dtype::of<std::uint8_t>()))
+  // By kind and size, not identity: '<u2' read from a buffer is uint16 too.
+  const char kind = dt.kind();
+  const auto size = dt.itemsize();
+  if (kind == 'u' && size == 1)
     return CV_8UC1;
-  if (dt.is(py::dtype::of<std::uint16_t>()))
+  if (kind == 'u' && size == 2)
     return CV_16UC1;
-  if (dt.is(py::dtype::of<float>()))
+  if (kind == 'f' && size == 4)
     return CV_32FC1;
   return -1;
 }
@@ -59,9 +62,12 @@ cv::Mat asMat(const py::handle& obj, const char* what, py::object& keep, int* cv
     throw py::value_error(s.str());
   }
   const auto item = static_cast<py::ssize_t>(arr.itemsize());
+  const py::module_ np = py::module_::import("numpy");
+  if (!py::cast<bool>(arr.dtype().attr("isnative")))
+    arr = py::array::ensure(arr.attr("astype")(arr.dtype().attr("newbyteorder")("=")));
   if (arr.strides(1) != item || arr.strides(0) < item * arr.shape(1))
   {
-    arr = py::array::ensure(py::module_::import("numpy").attr("ascontiguousarray")(arr));
+    arr = py::array::ensure(np.attr("ascontiguousarray")(arr));
   }
   keep = arr;
   if (cv_type)

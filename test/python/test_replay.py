@@ -1,0 +1,143 @@
+"""Offline replay (kinect-pipeline replay IN.bag -o OUT.bag) and the synthetic bag writer."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+
+import kinect_pipeline as kp  # noqa: E402
+from kinect_pipeline.bag import Rig, write_sequence_bag  # noqa: E402
+from kinect_pipeline.cli import main  # noqa: E402
+from kinect_pipeline.demo import SegwayMotion  # noqa: E402
+from kinect_pipeline.replay import ReplayError, ReplayOptions, replay  # noqa: E402
+
+FRAMES = 12
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("bags") / "seq.bag"
+    write_sequence_bag(path, frames=FRAMES, encoding="16UC1", seed=3)
+    return path
+
+
+def read(path: Path, topic: str) -> list:
+    from rosbags.rosbag1 import Reader
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    with Reader(path) as r:
+        conns = [c for c in r.connections if c.topic == topic]
+        return [ts.deserialize_ros1(raw, c.msgtype) for c, _, raw in r.messages(connections=conns)]
+
+
+def sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_replay_writes_a_scan_per_frame_equal_to_the_core_at_the_tf_pose(bag: Path, tmp_path: Path) -> None:
+    before = sha(bag)
+    out = tmp_path / "out.bag"
+    report = replay(bag, out, show_progress=False)
+    assert sha(bag) == before, "the input changed"
+    assert report.frames == report.processed == report.pose_from_tf == FRAMES
+    images = read(out, "/kinect2/sd/image_depth")
+    scans = read(out, "/kinect2/scan")
+    cleaned = read(out, "/kinect2/sd/image_depth/processed")
+    assert len(images) == len(scans) == len(cleaned) == FRAMES
+    rig, motion, cam = Rig(), SegwayMotion(), kp.kinect_v2_camera()
+    for img, scan, clean in zip(images, scans, cleaned):
+        assert (scan.header.stamp.sec, scan.header.stamp.nanosec) == (img.header.stamp.sec, img.header.stamp.nanosec)
+        _, _, pitch, height = rig.sensor_pose(motion.pitch(img.header.seq))
+        depth = np.frombuffer(img.data, np.uint16).reshape(img.height, img.width)
+        want = kp.Pipeline(cam, kp.Config(sensor_height=height, sensor_pitch=pitch)).process(depth)
+        same = np.isclose(scan.ranges, want.ranges, rtol=1e-4, atol=1e-5) | (np.isnan(scan.ranges) & np.isnan(want.ranges))
+        assert same.mean() >= 0.995
+        got_clean = np.frombuffer(clean.data, np.uint16).reshape(clean.height, clean.width)
+        assert (got_clean == want.depth).mean() >= 0.999
+
+
+def test_rosbag_tools_read_both_bags(bag: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out.bag"
+    replay(bag, out, show_progress=False)
+    if shutil.which("rosbag") is None:
+        pytest.skip("rosbag (Debian python3-rosbag) not installed")
+    for path, topic in ((bag, "/kinect2/sd/image_depth"), (out, "/kinect2/scan")):
+        info = subprocess.run(["rosbag", "info", str(path)], capture_output=True, text=True, check=True, timeout=60).stdout
+        assert topic in info and f"{FRAMES} msgs" in info
+
+
+def test_cli_refuses_to_overwrite_its_input(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    before = sha(bag)
+    assert main(["replay", str(bag), "-o", str(bag), "--quiet"]) == 1
+    assert "never overwrites its input" in capsys.readouterr().err
+    assert sha(bag) == before
+    link = tmp_path / "same.bag"
+    link.symlink_to(bag)
+    with pytest.raises(ReplayError, match="is the input"):
+        replay(bag, link, show_progress=False)
+    existing = tmp_path / "exists.bag"
+    existing.write_bytes(b"keep me")
+    with pytest.raises(ReplayError, match="exists"):
+        replay(bag, existing, show_progress=False)
+    assert existing.read_bytes() == b"keep me"
+
+
+def test_truncated_bag_is_refused_clearly_or_skipped_on_request(bag: Path, tmp_path: Path) -> None:
+    cut = tmp_path / "cut.bag"
+    data = bag.read_bytes()
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    with pytest.raises(ReplayError) as err:
+        replay(cut, tmp_path / "a.bag", show_progress=False)
+    assert str(cut) in str(err.value)
+    assert not (tmp_path / "a.bag").exists(), "no partial output is left behind"
+    assert not list(tmp_path.glob(".a.bag.partial*"))
+
+
+def test_damaged_bytes_name_where_and_skip_bad_goes_on(bag: Path, tmp_path: Path) -> None:
+    bad = tmp_path / "bad.bag"
+    data = bytearray(bag.read_bytes())
+    mid = len(data) // 2
+    data[mid:mid + 4000] = b"\xff" * 4000
+    bad.write_bytes(bytes(data))
+    with pytest.raises(ReplayError, match="damaged|not a readable"):
+        replay(bad, tmp_path / "b.bag", show_progress=False)
+    try:
+        report = replay(bad, tmp_path / "c.bag", ReplayOptions(skip_bad=True), show_progress=False)
+    except ReplayError as exc:  # the index itself was hit: nothing can be skipped to
+        assert "not a readable" in str(exc)
+        return
+    assert report.bad_messages >= 1 or report.processed < FRAMES
+    assert (tmp_path / "c.bag").exists()
+
+
+def test_missing_topics_are_named(tmp_path: Path, bag: Path) -> None:
+    with pytest.raises(ReplayError, match="--depth-topic /nope"):
+        replay(bag, tmp_path / "x.bag", ReplayOptions(depth_topic="/nope"), show_progress=False)
+    with pytest.raises(ReplayError, match="camera_info topic /a/camera_info"):
+        replay(bag, tmp_path / "y.bag", ReplayOptions(info_topic="/a/camera_info"), show_progress=False)
+    with pytest.raises(ReplayError, match="no such bag"):
+        replay(tmp_path / "none.bag", tmp_path / "z.bag", show_progress=False)
+
+
+def test_frames_without_tf_fall_back_or_are_skipped(bag: Path, tmp_path: Path) -> None:
+    r = replay(bag, tmp_path / "s.bag", ReplayOptions(base_frame="nowhere", pose_fallback="skip"), show_progress=False)
+    assert r.skipped_no_pose == FRAMES and r.processed == 0
+    r = replay(bag, tmp_path / "t.bag", ReplayOptions(base_frame="nowhere"), show_progress=False)
+    assert r.pose_fallback == FRAMES and r.processed == FRAMES
+    assert any("not connected" in p for p in r.problems)
+
+
+def test_synth_refuses_to_overwrite(tmp_path: Path) -> None:
+    p = tmp_path / "x.bag"
+    p.write_bytes(b"mine")
+    with pytest.raises(FileExistsError):
+        write_sequence_bag(p, frames=1)
+    assert p.read_bytes() == b"mine"
