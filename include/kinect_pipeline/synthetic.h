@@ -73,6 +73,15 @@ void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0 = 0.0015, 
                     double dropout = 0.01);
 
 /**
+ * @brief Time-of-flight artefacts of a Kinect v2, in place: pixels beyond @p max_range become unknown (+Inf),
+ *        and where a pixel's depth jumps by more than @p edge_jump from a neighbour's, it becomes with probability
+ *        @p flying a "flying pixel" somewhere between the two surfaces (uniformly). Seeded.
+ * @param depth CV_32F metres
+ */
+void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range = 8.0, double flying = 0.5,
+                     double edge_jump = 0.3);
+
+/**
  * @brief Converts float metres (+Inf/NaN unknown) into an encoding's image: 8-bit normalised with
  *        @p max_depth (rounded, saturating at 255; unknown -> 0), 16UC1 mm (rounded; unknown -> 0), or a copy.
  * @param type CV_8UC1, CV_16UC1 or CV_32FC1

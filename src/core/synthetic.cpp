@@ -172,6 +172,42 @@ void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0, double k,
   }
 }
 
+void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range, double flying, double edge_jump)
+{
+  if (depth.type() != CV_32FC1)
+    throw std::invalid_argument("addTofArtefacts: image type " + cv::typeToString(depth.type()) + ": expected 32FC1");
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const cv::Mat src = depth.clone();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int v = 0; v < depth.rows; ++v)
+  {
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const double p = uniform(rng), f = uniform(rng);
+      const float z = src.at<float>(v, u);
+      if (!std::isfinite(z))
+        continue;
+      // The farthest 4-neighbour across a jump: the pixel then mixes light from both surfaces.
+      float far = z;
+      const int du[4] = {1, -1, 0, 0}, dv[4] = {0, 0, 1, -1};
+      for (int k = 0; k < 4; ++k)
+      {
+        const int uu = u + du[k], vv = v + dv[k];
+        if (uu < 0 || vv < 0 || uu >= depth.cols || vv >= depth.rows)
+          continue;
+        const float n = src.at<float>(vv, uu);
+        if (std::isfinite(n) && n - z > edge_jump && n > far)
+          far = n;
+      }
+      float out = z;
+      if (far > z && p < flying)
+        out = static_cast<float>(z + f * (far - z));
+      depth.at<float>(v, u) = out > max_range ? inf : out;
+    }
+  }
+}
+
 cv::Mat encodeDepth(const cv::Mat& metres, int type, double max_depth)
 {
   if (metres.type() != CV_32FC1)

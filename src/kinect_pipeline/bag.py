@@ -17,7 +17,8 @@ import numpy as np
 
 from . import _core, kinect_v2_camera
 from .demo import SegwayMotion, progress
-from .scenes import ENCODINGS, Scene, lab_scene, render_frame
+from .metrics import ideal_scan
+from .scenes import ENCODINGS, KEPT, Scene, lab_scene, render_frame, truth_labels
 
 AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
 
@@ -78,9 +79,15 @@ def write_sequence_bag(
     start_s: float = 1000.0,
     max_depth: float = 12.0,
     show_progress: bool = False,
+    tof: bool = True,
+    roll: float = 0.0,
+    ceiling_height: float = 2.0,
 ) -> dict[str, Any]:
     """Renders ``frames`` frames of a Segway driving in ``scene`` and writes depth, camera_info, tf and a LiDAR
-    scan to a new bag at ``path`` (written to a temporary file, then renamed). Returns a summary."""
+    scan to a new bag at ``path`` (written to a temporary file, then renamed), with the ground truth of every
+    frame: its per-pixel labels (``/ground_truth/labels``, mono8, the pipeline's label values) and the ideal scan
+    (``/ground_truth/scan``: nearest obstacle below the ``ceiling_height`` plane per beam). ``tof`` adds flying
+    pixels and the Kinect's range limit; ``roll`` is the sensor's roll on its mount [rad]. Returns a summary."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
     if frames < 1:
@@ -126,9 +133,15 @@ def write_sequence_bag(
             c_tf = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
             c_tfs = w.add_connection("/tf_static", TFMessage.__msgtype__, typestore=ts, latching=1)
             c_lidar = w.add_connection(rig.lidar_topic, LaserScan.__msgtype__, typestore=ts)
+            c_gt_labels = w.add_connection("/ground_truth/labels", Image.__msgtype__, typestore=ts)
+            c_gt_scan = w.add_connection("/ground_truth/scan", LaserScan.__msgtype__, typestore=ts)
+            # The beams of the pipeline's default scan, for the ideal scan.
+            probe = _core.Pipeline(cam, _core.Config()).process(np.zeros((cam.height, cam.width), np.uint16))
             t0 = start_s
             static = TFMessage(transforms=[
-                tf("base_link", "kinect2_link", t0, rig.kinect_xyz, _quat_from_rpy(0.0, rig.kinect_tilt, 0.0)),
+                # Roll about the sensor's own axis after its tilt: R = Ry(tilt) Rx(roll), so that with the base's
+                # pitch the total is Ry(base + tilt) Rx(roll), the renderer's convention, exactly.
+                tf("base_link", "kinect2_link", t0, rig.kinect_xyz, _quat_from_rpy(roll, rig.kinect_tilt, 0.0)),
                 tf("kinect2_link", rig.optical_frame, t0, (0.0, 0.0, 0.0), _OPTICAL_IN_BODY),
                 tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
             ])
@@ -143,7 +156,7 @@ def write_sequence_bag(
                 shifted = Scene(boxes=tuple((b[0] - px, b[1] - px, *b[2:]) for b in scene.boxes),
                                 holes=tuple((h[0] - px, h[1] - px, h[2], h[3]) for h in scene.holes),
                                 hole_depth=scene.hole_depth, ceiling=scene.ceiling)
-                frame = render_frame(cam, shifted, height, total_pitch, 0.0, encoding, seed + i, max_depth)
+                frame = render_frame(cam, shifted, height, total_pitch, roll, encoding, seed + i, max_depth, tof=tof)
                 base = TFMessage(transforms=[tf("base_footprint", "base_link", t, (0.0, 0.0, AXLE_HEIGHT), _quat_from_rpy(0.0, bp, 0.0))])
                 w.write(c_tf, ns, ts.serialize_ros1(base, TFMessage.__msgtype__))
                 header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
@@ -166,6 +179,18 @@ def write_sequence_bag(
                                  time_increment=0.0, scan_time=1.0 / rate_hz, range_min=0.05, range_max=30.0,
                                  ranges=ranges, intensities=np.zeros(0, np.float32))
                 w.write(c_lidar, ns + 3, ts.serialize_ros1(scan, LaserScan.__msgtype__))
+                labels = truth_labels(frame.truth, ceiling_height)
+                gt_img = Image(header=header, height=labels.shape[0], width=labels.shape[1], encoding="mono8",
+                               is_bigendian=0, step=labels.shape[1], data=labels.reshape(-1))
+                w.write(c_gt_labels, ns + 4, ts.serialize_ros1(gt_img, Image.__msgtype__))
+                # The ideal scan is seen from the optical centre, as the pipeline's (x shifted by px).
+                ideal = ideal_scan(frame.truth, probe.angle_min, probe.angle_increment, len(probe.ranges), labels == KEPT)
+                gt_scan = LaserScan(header=Header(seq=i, stamp=stamp(t), frame_id="kinect2_scan"),
+                                    angle_min=probe.angle_min, angle_max=probe.angle_max,
+                                    angle_increment=probe.angle_increment, time_increment=0.0, scan_time=1.0 / rate_hz,
+                                    range_min=probe.range_min, range_max=probe.range_max,
+                                    ranges=ideal.astype(np.float32), intensities=np.zeros(0, np.float32))
+                w.write(c_gt_scan, ns + 5, ts.serialize_ros1(gt_scan, LaserScan.__msgtype__))
         os.replace(tmp, path)
     finally:
         if tmp.exists():

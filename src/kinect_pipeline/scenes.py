@@ -98,10 +98,15 @@ def render_frame(
     sigma0: float = 0.0015,
     k: float = 0.0019,
     dropout: float = 0.01,
+    tof: bool = False,
+    max_range: float = 8.0,
+    flying: float = 0.5,
 ) -> Frame:
     """Renders ``scene`` seen from ``height`` with total ``pitch`` / ``roll`` [rad] and encodes it.
 
     ``seed=None`` gives a noise-free frame; otherwise Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts.
+    ``tof=True`` adds the time-of-flight artefacts: nothing beyond ``max_range`` [m] and flying pixels at depth
+    jumps (probability ``flying``).
     """
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
@@ -116,6 +121,8 @@ def render_frame(
         ceiling=scene.ceiling,
     )
     metres = truth["depth"]
+    if tof:
+        metres = _core.add_tof_artefacts(metres, 0 if seed is None else seed + 7919, max_range, flying)
     if seed is not None:
         metres = _core.add_kinect_noise(metres, seed, sigma0, k, dropout)
     depth = _core.encode_depth(metres, encoding, max_depth)
@@ -123,3 +130,18 @@ def render_frame(
 
 
 kinect_sigma = _core.kinect_sigma
+
+#: Ground-truth labels, the same values as the pipeline's.
+KEPT, INVALID, FLOOR_LABEL, ABOVE_CEILING, BELOW_FLOOR = 0, 1, 2, 3, 4
+
+
+def truth_labels(truth: dict[str, np.ndarray], ceiling_height: float = 2.0) -> np.ndarray:
+    """What each pixel really is: nothing seen (invalid), floor, a hole (below floor), above the ceiling plane,
+    or an obstacle to keep."""
+    obj, height = truth["object"], truth["height"]
+    out = np.zeros(obj.shape, np.uint8)
+    out[obj == NOTHING] = INVALID
+    out[obj == FLOOR] = FLOOR_LABEL
+    out[obj == HOLE] = BELOW_FLOOR
+    out[(obj != NOTHING) & (obj != FLOOR) & (obj != HOLE) & (height > ceiling_height)] = ABOVE_CEILING
+    return out

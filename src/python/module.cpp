@@ -468,6 +468,19 @@ PYBIND11_MODULE(_core, m)
       py::arg("range_max") = 30.0,
       "Ranges of a level planar LiDAR at height z seeing the boxes (+Inf: nothing within range_max).");
   m.def(
+      "add_tof_artefacts",
+      [](py::array_t<float, py::array::c_style> depth, std::uint64_t seed, double max_range, double flying, double edge_jump) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth: expected a 2-D float32 array");
+        py::array_t<float> out({depth.shape(0), depth.shape(1)});
+        std::memcpy(out.mutable_data(), depth.data(), depth.nbytes());
+        cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
+        addTofArtefacts(m, seed, max_range, flying, edge_jump);
+        return out;
+      },
+      py::arg("depth"), py::arg("seed"), py::arg("max_range") = 8.0, py::arg("flying") = 0.5, py::arg("edge_jump") = 0.3,
+      "Copy of a float32 depth [m] with pixels beyond max_range unknown (+Inf) and flying pixels at depth jumps.");
+  m.def(
       "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
       py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,
       "Depth noise of the Kinect v2 model [m] at depth z [m] (numpy-vectorised).");
