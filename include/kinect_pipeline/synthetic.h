@@ -58,6 +58,15 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
 std::vector<float> renderLidar(const Scene& scene, double z, double angle_min, double increment, int beams,
                                double range_max);
 
+/**
+ * @brief The depthimage_to_laserscan way, as a baseline for comparisons: per column, the nearest valid depth
+ *        within @p band_rows rows around the principal point's row, range z * sqrt(1 + xn^2), no floor removal;
+ *        beams one per column, right to left.
+ * @param depth_m CV_32F metres (+Inf / NaN unknown)
+ * @return ranges [m] (+Inf where the band saw nothing)
+ */
+std::vector<float> bandScan(const cv::Mat& depth_m, const Camera& camera, int band_rows);
+
 /** @return the depth noise of the Kinect v2 model, sigma0 + k * (z - 0.4)^2 [m], at depth @p z [m]. */
 inline double kinectSigma(double z, double sigma0 = 0.0015, double k = 0.0019)
 {

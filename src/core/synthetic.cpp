@@ -150,6 +150,28 @@ std::vector<float> renderLidar(const Scene& scene, double z, double angle_min, d
   return out;
 }
 
+std::vector<float> bandScan(const cv::Mat& depth_m, const Camera& camera, int band_rows)
+{
+  if (depth_m.type() != CV_32FC1 || depth_m.cols != camera.width || depth_m.rows != camera.height)
+    throw std::invalid_argument("bandScan: expected a 32FC1 image of the camera's size");
+  std::vector<float> out(camera.width, std::numeric_limits<float>::infinity());
+  const int centre = static_cast<int>(std::lround(camera.cy));
+  const int r0 = std::max(0, centre - band_rows / 2), r1 = std::min(camera.height - 1, centre + (band_rows - 1) / 2);
+  for (int u = 0; u < camera.width; ++u)
+  {
+    float best = std::numeric_limits<float>::infinity();
+    for (int r = r0; r <= r1; ++r)
+    {
+      const float z = depth_m.at<float>(r, u);
+      if (z > 0.0f && z < best)
+        best = z;
+    }
+    const double xn = (u - camera.cx) / camera.fx;
+    out[camera.width - 1 - u] = static_cast<float>(best * std::sqrt(1.0 + xn * xn));
+  }
+  return out;
+}
+
 void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0, double k, double dropout)
 {
   if (depth.type() != CV_32FC1)

@@ -82,6 +82,16 @@ def cmd_bench_ros(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_quality(args: argparse.Namespace) -> int:
+    from .quality import evaluate, table
+
+    rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
+    print(f"lab scene, Kinect v2 at 1.1 m tilted 15 deg, {args.frames} frames per condition, {args.encoding}, "
+          "Kinect noise + dropouts + flying pixels + 8 m range; means over frames:")
+    print(table(rows))
+    return 0
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Quality of the default configuration on noisy rendered frames at a known pose."""
     import numpy as np
@@ -152,6 +162,12 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--rate", type=float, default=30.0, help="frames per second")
     r.add_argument("--threads", type=int, default=0, help="the pipeline's num_threads (0: OpenMP default)")
     r.set_defaults(func=cmd_bench_ros)
+
+    q = sub.add_parser("quality", help="quality table per pitch condition and mode vs baselines (ground truth)")
+    q.add_argument("--frames", type=int, default=20, help="frames per pitch condition")
+    q.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
+    q.add_argument("--quiet", action="store_true")
+    q.set_defaults(func=cmd_quality)
 
     e = sub.add_parser("evaluate", help="quality of the default config on noisy rendered frames (table)")
     e.add_argument("--frames", type=int, default=8)

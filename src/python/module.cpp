@@ -481,6 +481,17 @@ PYBIND11_MODULE(_core, m)
       py::arg("depth"), py::arg("seed"), py::arg("max_range") = 8.0, py::arg("flying") = 0.5, py::arg("edge_jump") = 0.3,
       "Copy of a float32 depth [m] with pixels beyond max_range unknown (+Inf) and flying pixels at depth jumps.");
   m.def(
+      "band_scan",
+      [](py::array_t<float, py::array::c_style> depth, const Camera& cam, int band_rows) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth: expected a 2-D float32 array");
+        cv::Mat m(static_cast<int>(depth.shape(0)), static_cast<int>(depth.shape(1)), CV_32FC1,
+                  const_cast<float*>(depth.data()));
+        return vecToArray(bandScan(m, cam, band_rows));
+      },
+      py::arg("depth"), py::arg("camera"), py::arg("band_rows") = 1,
+      "Baseline (depthimage_to_laserscan's way): nearest depth per column in a band of rows, no floor removal.");
+  m.def(
       "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
       py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,
       "Depth noise of the Kinect v2 model [m] at depth z [m] (numpy-vectorised).");

@@ -1,0 +1,140 @@
+"""Quality table on the generator's ground truth: per pitch condition and per geometry/projection mode, against a
+static-tilt pipeline (base pitch ignored) and a single-row band scan, all in one run."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from . import _core, kinect_v2_camera
+from .demo import SegwayMotion, progress
+from .metrics import ideal_scan
+from .scenes import FIRST_BOX, FLOOR, Scene, lab_scene, render_frame
+
+HEIGHT, TILT = 1.1, math.radians(15.0)
+
+CONDITIONS: dict[str, Callable[[int], float]] = {
+    "static": lambda i: 0.0,
+    "oscillating": lambda i: math.radians(4.0) * math.sin(2 * math.pi * i / 30.0),
+    "jerks": SegwayMotion(amplitude=math.radians(2.0), period_frames=60.0, jerk_frame=5).pitch,
+}
+
+#: name -> (Config fields, base pitch given to the pipeline?)
+VARIANTS: dict[str, tuple[dict[str, Any] | None, bool]] = {
+    "exact, horizontal (default)": ({}, True),
+    "exact, column": ({"projection": "column"}, True),
+    "thesis, column": ({"geometry": "thesis", "projection": "column"}, True),
+    "static tilt (base pitch ignored)": ({}, False),
+    "band scan, 1 row (no floor removal)": (None, False),
+}
+
+HEIGHT_CLASSES = ((0.05, 0.10), (0.10, 0.30), (0.30, 2.0))
+
+
+@dataclass
+class Row:
+    condition: str
+    variant: str
+    floor_removed: float
+    kept: tuple[float, ...]
+    phantom: float
+    phantom_noise: float
+    missed: float
+    range_error_cm: float
+
+    def markdown(self) -> str:
+        def pct(x: float) -> str:
+            return "–" if math.isnan(x) else f"{100 * x:.2f}"
+
+        kept = " | ".join(pct(k) for k in self.kept)
+        err = "–" if math.isnan(self.range_error_cm) else f"{self.range_error_cm:.1f}"
+        return (f"| {self.condition} | {self.variant} | {pct(self.floor_removed)} | {kept} | {pct(self.phantom)} "
+                f"| {pct(self.phantom_noise)} | {pct(self.missed)} | {err} |")
+
+
+HEADER = ("| base pitch | pipeline | floor removed (< 6 m) % | kept 5–10 cm % | kept 10–30 cm % | kept 0.3–2 m % "
+          "| phantom > 5 cm % | phantom > 5 cm + 4σ % | missed beams % | median range error [cm] |\n"
+          "|---|---|---|---|---|---|---|---|---|---|")
+
+
+def _tall_ids(scene: Scene) -> set[int]:
+    return {FIRST_BOX + i for i, b in enumerate(scene.boxes) if b[5] - b[4] >= 0.10 and b[4] < 2.0}
+
+
+def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_progress: bool = False) -> list[Row]:
+    cam = kinect_v2_camera()
+    scene = lab_scene()
+    tall = _tall_ids(scene)
+    geometry = _scan_geometry(cam)
+    rows: list[Row] = []
+    items = [(c, v) for c in CONDITIONS for v in VARIANTS]
+    sums: dict[tuple[str, str], dict[str, list[float]]] = {k: {} for k in items}
+    for cond, pitch_of in CONDITIONS.items():
+        pipes = {v: _core.Pipeline(cam, _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, **cfg))
+                 for v, (cfg, _) in VARIANTS.items() if cfg is not None}
+        it = range(frames)
+        for i in progress(it, frames, cond) if show_progress else it:
+            bp = pitch_of(i)
+            f = render_frame(cam, scene, HEIGHT, TILT + bp, 0.0, encoding, seed + i, tof=True)
+            t = f.truth
+            obj, height, rng = t["object"], t["height"], t["range"]
+            obstacle = (obj >= FIRST_BOX) & (height <= 2.0)
+            for v, (cfg, use_pitch) in VARIANTS.items():
+                acc = sums[(cond, v)]
+                if cfg is None:
+                    metres = f.metres.astype(np.float32)
+                    ranges = _core.band_scan(np.ascontiguousarray(metres), cam, 1)
+                    labels = None
+                    angle_min, inc = geometry
+                else:
+                    res = pipes[v].process(f.depth, bp if use_pitch else 0.0, 0.0)
+                    ranges, labels = res.ranges, res.labels
+                    angle_min, inc = res.angle_min, res.angle_increment
+                n = len(ranges)
+                if labels is not None:
+                    floor = (obj == FLOOR) & (rng < 6.0)
+                    acc.setdefault("floor", []).append(float((labels[floor] != 0).mean()))
+                    for k, (lo, hi) in enumerate(HEIGHT_CLASSES):
+                        m = obstacle & (height >= lo) & (height < hi)
+                        if m.any():
+                            acc.setdefault(f"kept{k}", []).append(float((labels[m] == 0).mean()))
+                # Phantom: shorter than the nearest true obstacle (within one beam either side) by > 5 cm; a kept
+                # floor pixel is one, as navigation would see it.
+                real = ideal_scan(t, angle_min, inc, n, obstacle)
+                real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
+                r = np.asarray(ranges, np.float64)
+                fin = np.isfinite(r)
+                acc.setdefault("phantom", []).append(float((fin & (r < real - 0.05)).sum() / n))
+                sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
+                acc.setdefault("phantom4", []).append(float((fin & (r < real - 0.05 - 4 * sigma)).sum() / n))
+                tall_scan = ideal_scan(t, angle_min, inc, n, np.isin(obj, list(tall)) & (height <= 2.0))
+                seen = np.isfinite(tall_scan)
+                if seen.any():
+                    miss = seen & (~fin | (r > tall_scan + 0.10))
+                    acc.setdefault("missed", []).append(float(miss.sum() / seen.sum()))
+                obst_scan = ideal_scan(t, angle_min, inc, n, obstacle)
+                both = fin & np.isfinite(obst_scan)
+                if both.any():
+                    acc.setdefault("err", []).append(float(np.median(np.abs(r[both] - obst_scan[both]))))
+    for cond, v in items:
+        acc = sums[(cond, v)]
+
+        def mean(key: str) -> float:
+            vals = acc.get(key, [])
+            return float(np.mean(vals)) if vals else float("nan")
+
+        rows.append(Row(cond, v, mean("floor"), tuple(mean(f"kept{k}") for k in range(len(HEIGHT_CLASSES))),
+                        mean("phantom"), mean("phantom4"), mean("missed"), 100 * mean("err")))
+    return rows
+
+
+def _scan_geometry(cam: _core.Camera) -> tuple[float, float]:
+    res = _core.Pipeline(cam, _core.Config(projection="column")).process(np.zeros((cam.height, cam.width), np.uint16))
+    return res.angle_min, res.angle_increment
+
+
+def table(rows: list[Row]) -> str:
+    return HEADER + "\n" + "\n".join(r.markdown() for r in rows)
