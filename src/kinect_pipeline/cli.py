@@ -72,6 +72,35 @@ def cmd_replay(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from . import _core
+    from .calibrate import CalibrationError, calibrate, load_depth
+
+    try:
+        frames = [(f, load_depth(Path(f), args.depth_scale, args.max_depth)) for f in args.files]
+        h, w = frames[0][1].shape
+        fx, fy, cx, cy = args.intrinsics
+        cam = _core.Camera(w, h, fx, fy, cx, cy)
+        result = calibrate(frames, cam, max_tilt=math.radians(args.max_tilt))
+    except CalibrationError as exc:
+        raise ToolError(str(exc)) from exc
+    d = result.as_dict(args.base_frame, args.optical_frame)
+    if args.json:
+        print(json.dumps(d, indent=1))
+    elif result.found:
+        print(f"height {result.height:.4f} m +- {result.height_std:.4f}, pitch {math.degrees(result.pitch):+.3f} deg "
+              f"+- {math.degrees(result.pitch_std):.3f}, roll {math.degrees(result.roll):+.3f} deg "
+              f"+- {math.degrees(result.roll_std):.3f}; floor {100 * result.floor_fraction:.1f} % of the pixels, "
+              f"{len(frames)} frame(s)")
+        print(f"launch args: {d['launch_args']}")
+        print("YAML:\n" + "\n".join(f"{k}: {v}" for k, v in d["yaml"].items()))
+        print(f"static tf: {d['static_transform']}")
+    if not result.found:
+        print(f"kinect-pipeline calibrate: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
@@ -156,6 +185,19 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
+
+    c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
+    c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
+    c.add_argument("--intrinsics", nargs=4, type=float, required=True, metavar=("FX", "FY", "CX", "CY"))
+    c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
+    c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
+    c.add_argument("--max-tilt", type=float, default=40.0,
+                   help="largest |pitch| / roll considered [deg]: a wall seen by a level camera looks like a floor "
+                        "seen by a steeply tilted one")
+    c.add_argument("--json", action="store_true", help="print JSON (height, pitch, roll [m, rad], floor_fraction, ...)")
+    c.add_argument("--base-frame", default="base_footprint")
+    c.add_argument("--optical-frame", default="kinect2_depth_optical_frame")
+    c.set_defaults(func=cmd_calibrate)
 
     r = sub.add_parser("bench-ros", help="image->scan latency and CPU: node, nodelet, bare image_transport relay")
     r.add_argument("--frames", type=int, default=300)

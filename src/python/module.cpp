@@ -8,6 +8,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include "kinect_pipeline/calibration.h"
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
 #include "kinect_pipeline/morphology.h"
@@ -491,6 +492,42 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("depth"), py::arg("camera"), py::arg("band_rows") = 1,
       "Baseline (depthimage_to_laserscan's way): nearest depth per column in a band of rows, no floor removal.");
+  m.def(
+      "calibrate_from_floor",
+      [](py::array_t<float, py::array::c_style> depth, const Camera& cam, double max_tilt, double min_fraction,
+         double max_range, int iterations, int stride, std::uint64_t seed) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth: expected a 2-D float32 array [m]");
+        cv::Mat m(static_cast<int>(depth.shape(0)), static_cast<int>(depth.shape(1)), CV_32FC1,
+                  const_cast<float*>(depth.data()));
+        CalibrationOptions o;
+        o.max_tilt = max_tilt;
+        o.min_fraction = min_fraction;
+        o.max_range = max_range;
+        o.iterations = iterations;
+        o.stride = stride;
+        o.seed = seed;
+        FloorPose p;
+        {
+          py::gil_scoped_release release;
+          p = calibrateFromFloor(m, cam, o);
+        }
+        py::dict d;
+        d["found"] = p.found;
+        d["height"] = p.height;
+        d["pitch"] = p.pitch;
+        d["roll"] = p.roll;
+        d["height_std"] = p.height_std;
+        d["pitch_std"] = p.pitch_std;
+        d["roll_std"] = p.roll_std;
+        d["floor_fraction"] = p.floor_fraction;
+        d["floor_pixels"] = p.floor_pixels;
+        d["rms"] = p.rms;
+        return d;
+      },
+      py::arg("depth"), py::arg("camera"), py::arg("max_tilt") = 0.7, py::arg("min_fraction") = 0.05,
+      py::arg("max_range") = 6.0, py::arg("iterations") = 400, py::arg("stride") = 2, py::arg("seed") = 1,
+      "Height, pitch, roll (and 1-sigma) of the sensor from the floor seen in a float32 depth frame [m].");
   m.def(
       "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
       py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,

@@ -1,0 +1,230 @@
+#include "kinect_pipeline/calibration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+#include "kinect_pipeline/synthetic.h"
+
+namespace kinect_pipeline
+{
+namespace
+{
+struct Pt
+{
+  double x, y, z, w;  // optical frame [m], weight 1/sigma^2
+};
+
+struct Plane
+{
+  double n[3];  // unit normal towards the camera ("up")
+  double d;     // camera's distance above the plane: n . p + d = 0 for p on the plane
+};
+
+// The up vector seen in the optical frame is (-cos(p) sin(r), -cos(p) cos(r), -sin(p)) for R = Ry(p) Rx(r).
+bool planeFrom3(const Pt& a, const Pt& b, const Pt& c, Plane& out)
+{
+  const double u[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, v[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+  double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (len < 1e-9)
+    return false;
+  for (double& x : n)
+    x /= len;
+  double d = -(n[0] * a.x + n[1] * a.y + n[2] * a.z);
+  if (d < 0)  // make the camera (origin) lie on the positive side: n points towards it
+  {
+    for (double& x : n)
+      x = -x;
+    d = -d;
+  }
+  out = {{n[0], n[1], n[2]}, d};
+  return true;
+}
+
+double band(double z) { return 3.0 * kinectSigma(z) + 0.01; }
+}  // namespace
+
+void pitchRollFromUp(const double n[3], double& pitch, double& roll)
+{
+  pitch = std::asin(std::max(-1.0, std::min(1.0, -n[2])));
+  roll = std::atan2(-n[0], -n[1]);
+}
+
+FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const CalibrationOptions& o)
+{
+  camera.validate();
+  if (depth_m.type() != CV_32FC1 || depth_m.cols != camera.width || depth_m.rows != camera.height)
+    throw std::invalid_argument("calibrateFromFloor: expected a 32FC1 depth image of the camera's size " +
+                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  std::vector<Pt> pts;
+  const int stride = std::max(1, o.stride);
+  for (int r = 0; r < depth_m.rows; r += stride)
+    for (int u = 0; u < depth_m.cols; u += stride)
+    {
+      const float z = depth_m.at<float>(r, u);
+      if (!(z > 0.1f && z < o.max_range))
+        continue;
+      const double s = kinectSigma(z);
+      pts.push_back({(u - camera.cx) / camera.fx * z, (r - camera.cy) / camera.fy * z, z, 1.0 / (s * s)});
+    }
+  FloorPose out;
+  if (pts.size() < 50)
+    return out;
+  const double up[3] = {0.0, -1.0, 0.0};
+  const double cos_tilt = std::cos(o.max_tilt);
+  std::mt19937_64 rng(o.seed);
+  // Score hypotheses on a subsample; keep the best per height so that the lowest well-supported plane wins.
+  std::vector<std::size_t> sample;
+  // Hypotheses are scored on the nearer points, whose noise is small: far points would support tilted planes.
+  std::vector<std::size_t> near;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    if (pts[i].z < 4.0)
+      near.push_back(i);
+  if (near.size() < 50)
+  {
+    near.resize(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      near[i] = i;
+  }
+  const std::size_t step = std::max<std::size_t>(1, near.size() / 6000);
+  for (std::size_t i = 0; i < near.size(); i += step)
+    sample.push_back(near[i]);
+  struct Hyp
+  {
+    Plane p;
+    int support;
+    double score;
+  };
+  std::vector<Hyp> hyps;
+  for (int it = 0; it < o.iterations; ++it)
+  {
+    Plane p;
+    std::uniform_int_distribution<std::size_t> draw(0, sample.size() - 1);
+    if (!planeFrom3(pts[sample[draw(rng)]], pts[sample[draw(rng)]], pts[sample[draw(rng)]], p))
+      continue;
+    if (p.n[0] * up[0] + p.n[1] * up[1] + p.n[2] * up[2] < cos_tilt || p.d < o.min_height || p.d > o.max_height)
+      continue;
+    // MSAC: inliers count by how well they fit (1 - (e / band)^2), so a plane that only grazes many points in
+    // their wide far bands loses to one that fits its points tightly.
+    double score = 0.0;
+    int support = 0;
+    for (std::size_t i : sample)
+    {
+      const Pt& q = pts[i];
+      const double e = std::fabs(p.n[0] * q.x + p.n[1] * q.y + p.n[2] * q.z + p.d) / band(q.z);
+      if (e < 1.0)
+      {
+        score += 1.0 - e * e;
+        ++support;
+      }
+    }
+    hyps.push_back({p, support, score});
+  }
+  const Hyp* top = nullptr;
+  for (const Hyp& h : hyps)
+    if (!top || h.score > top->score)
+      top = &h;
+  if (!top || top->support < std::max(10, static_cast<int>(o.min_fraction * sample.size())))
+    return out;
+  // A table top is parallel to the floor and holds more pixels at times: among planes nearly parallel to the best
+  // one with a good share of its support, the floor is the lowest.
+  const int needed = std::max(static_cast<int>(o.min_fraction * sample.size()), static_cast<int>(0.3 * top->support));
+  const double cos_parallel = std::cos(0.05);
+  const Hyp* chosen = top;
+  for (const Hyp& h : hyps)
+  {
+    const double c = h.p.n[0] * top->p.n[0] + h.p.n[1] * top->p.n[1] + h.p.n[2] * top->p.n[2];
+    if (h.support >= needed && c > cos_parallel && h.p.d > chosen->p.d + 0.2)
+      chosen = &h;
+  }
+
+  // Weighted least-squares refits on the inliers (weights 1 / sigma(z)^2), twice, re-selecting the inliers.
+  Plane p = chosen->p;
+  std::vector<const Pt*> in;
+  double cov[3][3] = {};
+  double wsum = 0.0;
+  double c[3] = {0, 0, 0};
+  for (int pass = 0; pass < 3; ++pass)
+  {
+    in.clear();
+    for (const Pt& q : pts)
+      if (std::fabs(p.n[0] * q.x + p.n[1] * q.y + p.n[2] * q.z + p.d) < band(q.z))
+        in.push_back(&q);
+    if (in.size() < 10)
+      return out;
+    c[0] = c[1] = c[2] = 0.0;
+    wsum = 0.0;
+    for (const Pt* q : in)
+    {
+      c[0] += q->w * q->x;
+      c[1] += q->w * q->y;
+      c[2] += q->w * q->z;
+      wsum += q->w;
+    }
+    for (double& x : c)
+      x /= wsum;
+    for (auto& row : cov)
+      for (double& x : row)
+        x = 0.0;
+    for (const Pt* q : in)
+    {
+      const double d[3] = {q->x - c[0], q->y - c[1], q->z - c[2]};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          cov[i][j] += q->w * d[i] * d[j];
+    }
+    cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
+    cv::eigen(C, evals, evecs);  // descending: the last row is the normal
+    double n[3] = {evecs.at<double>(2, 0), evecs.at<double>(2, 1), evecs.at<double>(2, 2)};
+    double d = -(n[0] * c[0] + n[1] * c[1] + n[2] * c[2]);
+    if (d < 0)
+    {
+      for (double& x : n)
+        x = -x;
+      d = -d;
+    }
+    p = {{n[0], n[1], n[2]}, d};
+  }
+  // A slice of a wall at the tilt limit refits to the wall: what fails the limits after the refit is no floor.
+  if (p.n[0] * up[0] + p.n[1] * up[1] + p.n[2] * up[2] < cos_tilt || p.d < o.min_height || p.d > o.max_height)
+    return out;
+  double ss = 0.0, wss = 0.0;
+  for (const Pt* q : in)
+  {
+    const double e = p.n[0] * q->x + p.n[1] * q->y + p.n[2] * q->z + p.d;
+    ss += e * e;
+    wss += q->w * e * e;
+  }
+  out.found = true;
+  out.height = p.d;
+  pitchRollFromUp(p.n, out.pitch, out.roll);
+  out.floor_pixels = static_cast<int>(in.size());
+  out.floor_fraction = static_cast<double>(in.size()) / pts.size();
+  out.rms = std::sqrt(ss / in.size());
+  // Uncertainty of a weighted plane fit: the residual scale over the weighted spread along each direction.
+  const double scale = std::sqrt(wss / std::max<std::size_t>(1, in.size() - 3));
+  double e1[3], e2[3];
+  {
+    cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
+    cv::eigen(C, evals, evecs);
+    for (int i = 0; i < 3; ++i)
+    {
+      e1[i] = evecs.at<double>(0, i);
+      e2[i] = evecs.at<double>(1, i);
+    }
+    const double l1 = std::max(evals.at<double>(0), 1e-12), l2 = std::max(evals.at<double>(1), 1e-12);
+    const double s1 = scale / std::sqrt(l1), s2 = scale / std::sqrt(l2);
+    // Tilting the normal towards e1 / e2 by s1 / s2 radians; map onto pitch (optical z) and roll (optical x).
+    out.pitch_std = std::hypot(s1 * e1[2], s2 * e2[2]);
+    out.roll_std = std::hypot(s1 * e1[0], s2 * e2[0]);
+    // The height is the plane's distance from the camera: its offset at the centroid, plus the tilt times the
+    // centroid's lever arm.
+    const double arm1 = e1[0] * c[0] + e1[1] * c[1] + e1[2] * c[2], arm2 = e2[0] * c[0] + e2[1] * c[1] + e2[2] * c[2];
+    out.height_std = std::sqrt(scale * scale / wsum + std::pow(s1 * arm1, 2) + std::pow(s2 * arm2, 2));
+  }
+  return out;
+}
+
+}  // namespace kinect_pipeline

@@ -1,0 +1,99 @@
+"""kinect-pipeline calibrate FILE... --intrinsics FX FY CX CY --json"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import kinect_pipeline as kp
+from kinect_pipeline.cli import main
+from kinect_pipeline.scenes import FLOOR, lab_scene, render_frame
+
+cv2 = pytest.importorskip("cv2")
+REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"
+CAM = kp.kinect_v2_camera()
+INTR = [str(CAM.fx), str(CAM.fy), str(CAM.cx), str(CAM.cy)]
+
+
+def run_cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict, str]:
+    rc = main(["calibrate", *args, "--json"])
+    out = capsys.readouterr()
+    return rc, json.loads(out.out) if out.out.strip() else {}, out.err
+
+
+@pytest.mark.parametrize("fmt", ["png16", "npy_float", "npy_uint8"])
+@pytest.mark.parametrize(("height", "pitch", "roll"), [(1.1, 0.26, 0.0), (0.6, 0.05, 0.03), (1.4, 0.45, -0.02)])
+def test_recovers_the_true_pose(tmp_path: Path, capsys: pytest.CaptureFixture[str], fmt: str, height: float,
+                                pitch: float, roll: float) -> None:
+    enc = {"png16": "16UC1", "npy_float": "32FC1", "npy_uint8": "8UC1"}[fmt]
+    f = render_frame(CAM, lab_scene(), height, pitch, roll, enc, seed=21)
+    assert (f.truth["object"] == FLOOR).mean() >= 0.15
+    path = tmp_path / ("frame.png" if fmt == "png16" else "frame.npy")
+    if fmt == "png16":
+        assert cv2.imwrite(str(path), f.depth)
+    else:
+        np.save(path, f.depth)
+    rc, d, _ = run_cli(capsys, str(path), "--intrinsics", *INTR)
+    assert rc == 0 and d["found"]
+    assert abs(d["height"] - height) <= 0.01
+    assert abs(math.degrees(d["pitch"] - pitch)) <= 0.2
+    assert abs(math.degrees(d["roll"] - roll)) <= 0.2
+    assert 0.15 <= d["floor_fraction"] <= 1.0
+    assert f"sensor_height:={d['height']:.4f}" in d["launch_args"]
+
+
+def test_several_frames_average(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    paths = []
+    for i in range(3):
+        f = render_frame(CAM, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=100 + i)
+        paths.append(str(tmp_path / f"f{i}.png"))
+        cv2.imwrite(paths[-1], f.depth)
+    rc, d, _ = run_cli(capsys, *paths, "--intrinsics", *INTR)
+    assert rc == 0 and len(d["frames"]) == 3
+    assert abs(d["height"] - 1.1) <= 0.01 and d["height_std"] < 0.01
+
+
+REAL_FRAMES = [
+    ("tum_nyu_sun_open3d/NYU_depth_mm.png", (582.6, 582.7, 313.0, 238.4), 0.001),
+    ("tum_nyu_sun_open3d/SUN_depth_mm.png", (525.0, 525.0, 319.5, 239.5), 0.001),
+    ("tum_nyu_sun_open3d/TUM_depth.png", (525.0, 525.0, 319.5, 239.5), 0.0002),
+    ("slambook2/ch5/rgbd/depth/1.pgm", (518.0, 519.0, 325.5, 253.5), 0.001),
+    ("slambook2/ch7/1_depth.png", (520.9, 521.0, 325.1, 249.7), 0.0002),
+]
+
+
+@pytest.mark.parametrize(("name", "intr", "scale"), REAL_FRAMES)
+def test_real_frames_with_a_floor_give_a_plausible_pose(capsys: pytest.CaptureFixture[str], name: str,
+                                                         intr: tuple, scale: float) -> None:
+    path = REAL / name
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    rc, d, _ = run_cli(capsys, str(path), "--intrinsics", *map(str, intr), "--depth-scale", str(scale))
+    assert rc == 0 and d["found"], d
+    assert 0.4 <= d["height"] <= 2.0
+    assert -10 <= math.degrees(d["pitch"]) <= 40
+    assert abs(math.degrees(d["roll"])) <= 10
+    assert d["floor_fraction"] >= 0.05
+
+
+def test_frame_without_floor_says_so(capsys: pytest.CaptureFixture[str]) -> None:
+    path = REAL / "mrpt_no_floor" / "obs000_depth_mm.png"
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    rc, d, err = run_cli(capsys, str(path), "--intrinsics", "572.88", "542.74", "314.65", "240.16")
+    assert rc == 1
+    assert d["found"] is False
+    assert "no floor found" in err and "no floor found" in d["message"]
+
+
+def test_bad_files_are_named(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rc = main(["calibrate", str(tmp_path / "none.png"), "--intrinsics", *INTR])
+    assert rc == 1 and "none.png: no such file" in capsys.readouterr().err
+    bad = tmp_path / "rgb.png"
+    cv2.imwrite(str(bad), np.zeros((10, 10, 3), np.uint8))
+    rc = main(["calibrate", str(bad), "--intrinsics", *INTR])
+    assert rc == 1 and "single-channel" in capsys.readouterr().err
