@@ -29,9 +29,22 @@ def _bench_binary() -> Path:
 def cmd_demo(args: argparse.Namespace) -> int:
     from .demo import run_demo
 
-    summary = run_demo(Path(args.out), frames=args.frames, encoding=args.encoding, seed=args.seed)
+    from .bag import write_sequence_bag
+    from .replay import format_report, replay
+    from .report import write_report
+
+    out = Path(args.out)
+    summary = run_demo(out, frames=args.frames, encoding=args.encoding, seed=args.seed)
     print(json.dumps(summary, indent=1))
-    print(f"pictures: {Path(args.out) / 'frame.png'}  {Path(args.out) / 'scan.png'}")
+    # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.
+    bag, replayed = out / "demo.bag", out / "demo_replayed.bag"
+    for p in (bag, replayed):  # the demo's own outputs of an earlier run
+        p.unlink(missing_ok=True)
+    write_sequence_bag(bag, frames=args.frames, encoding=args.encoding, seed=args.seed)
+    print(format_report(replay(bag, replayed, show_progress=True)))
+    report = write_report(replayed, out / "report", show_progress=True)
+    print(json.dumps({k: v for k, v in report.items() if k != "pictures"}, indent=1))
+    print(f"pictures: {out / 'frame.png'}  {out / 'scan.png'}  report: {out / 'report' / 'index.html'}")
     return 0
 
 
@@ -98,6 +111,20 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if not result.found:
         print(f"kinect-pipeline calibrate: {result.message}", file=sys.stderr)
         return 1
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from .replay import ReplayError, ReplayOptions
+    from .report import write_report
+
+    opts = ReplayOptions(depth_topic=args.depth_topic, base_frame=args.base_frame)
+    try:
+        summary = write_report(Path(args.input), Path(args.out), opts, show_progress=not args.quiet)
+    except ReplayError as exc:
+        raise ToolError(str(exc)) from exc
+    print(json.dumps(summary, indent=1))
+    print(f"report: {Path(args.out) / 'index.html'}")
     return 0
 
 
@@ -185,6 +212,14 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
+
+    rep = sub.add_parser("report", help="pictures and an index.html for a bag (frame, scan vs LiDAR, confidence, timing)")
+    rep.add_argument("input", help="ROS 1 bag with a depth image, its camera_info and tf")
+    rep.add_argument("-o", "--out", required=True, help="output folder")
+    rep.add_argument("--depth-topic")
+    rep.add_argument("--base-frame", default="base_footprint")
+    rep.add_argument("--quiet", action="store_true")
+    rep.set_defaults(func=cmd_report)
 
     c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
     c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")

@@ -141,3 +141,16 @@ def test_synth_refuses_to_overwrite(tmp_path: Path) -> None:
     with pytest.raises(FileExistsError):
         write_sequence_bag(p, frames=1)
     assert p.read_bytes() == b"mine"
+
+
+def test_report_writes_pictures_and_an_index(bag: Path, tmp_path: Path) -> None:
+    from kinect_pipeline.report import write_report
+
+    summary = write_report(bag, tmp_path / "rep", show_progress=False)
+    for name in ("frame.png", "scan.png", "confidence.png", "timing.png", "index.html", "quality.json"):
+        assert (tmp_path / "rep" / name).stat().st_size > 1000 or name == "quality.json", name
+    page = (tmp_path / "rep" / "index.html").read_text()
+    for name in ("frame.png", "scan.png", "confidence.png", "timing.png"):
+        assert f'src="{name}"' in page
+    assert summary["frames"] == FRAMES
+    assert 0.0 <= summary["phantom_beams"] <= 1.0 and summary["label_agreement_min"] > 0.95

@@ -1,0 +1,260 @@
+"""Report of a bag: pictures people would rather see than read, and an index.html.
+
+``kinect-pipeline report IN.bag -o DIR`` runs the core over the bag (at the pose its tf gives) and writes:
+frame.png (raw, cleaned and labelled depth: thesis figs 4.11, 4.17a/b), scan.png (the Kinect scan over the LiDAR
+scan in the robot frame, 1 m grid: fig 4.20b), confidence.png (before and after the intensity filter: fig 4.21),
+timing.png (per-frame processing time) and index.html; with the generator's ground truth, quality.json too.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import _core
+from .demo import _save_atomic, progress, to_metres
+from .replay import ReplayError, ReplayOptions, TfBuffer, _pick_topics, _stamp, _typestore, image_to_array
+
+
+@dataclass
+class FrameRecord:
+    stamp: float
+    base_pitch_hint: float
+    pose: tuple[float, float, float]
+    sensor_xy: tuple[float, float, float]
+    ranges: np.ndarray
+    intensities: np.ndarray
+    filtered: np.ndarray
+    ms: float
+    lidar: tuple[np.ndarray, float, float, tuple[float, float, float]] | None = None
+    gt_scan: np.ndarray | None = None
+    gt_labels: np.ndarray | None = None
+    labels_match: float = math.nan
+
+
+@dataclass
+class Collected:
+    frames: list[FrameRecord] = field(default_factory=list)
+    angle_min: float = 0.0
+    angle_increment: float = 0.0
+    showcase: tuple[np.ndarray, Any, float] | None = None  # depth, result, max_depth
+
+
+def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True) -> Collected:
+    """Runs two pipelines over the bag: the configured one, and the same with the intensity filter on."""
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    ts = _typestore()
+    out = Collected()
+    try:
+        reader = Reader(bag)
+        reader.open()
+    except (ReaderError, OSError) as exc:
+        raise ReplayError(f"{bag}: not a readable ROS 1 bag ({exc})") from exc
+    try:
+        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
+        tf = TfBuffer()
+        tf_conns = [c for c in reader.connections if c.topic in ("/tf", "/tf_static")]
+        for conn, _, raw in reader.messages(connections=tf_conns):
+            tf.add(ts.deserialize_ros1(raw, conn.msgtype), static=conn.topic == "/tf_static")
+        lidar_topic = next((c.topic for c in reader.connections
+                            if c.msgtype == "sensor_msgs/msg/LaserScan" and "ground_truth" not in c.topic), None)
+        pending: dict[str, dict[float, Any]] = {"lidar": {}, "gt_scan": {}, "gt_labels": {}}
+        # Side topics first: they may come after the frame they belong to.
+        side = [c for c in reader.connections if c.topic in (lidar_topic, "/ground_truth/scan", "/ground_truth/labels")]
+        for conn, _, raw in reader.messages(connections=side):
+            msg = ts.deserialize_ros1(raw, conn.msgtype)
+            st = _stamp(msg.header)
+            if conn.topic == lidar_topic:
+                pending["lidar"][st] = msg
+            elif conn.topic == "/ground_truth/scan":
+                pending["gt_scan"][st] = np.array(msg.ranges, np.float32)
+            else:
+                pending["gt_labels"][st] = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
+        conns = [c for c in reader.connections if c.topic in (depth_topic, info_topic)]
+        total = sum(c.msgcount for c in conns if c.topic == depth_topic)
+        config = dict(opts.config)
+        pipe = pipe_f = None
+        infos: dict[float, Any] = {}
+        bar = iter(progress(range(total), total, "report")) if show_progress else None
+        best_score = -1.0
+        for conn, _, raw in reader.messages(connections=conns):
+            msg = ts.deserialize_ros1(raw, conn.msgtype)
+            st = _stamp(msg.header)
+            if conn.topic == info_topic:
+                infos[st] = msg
+                continue
+            info = infos.get(st) or (infos[max(infos)] if infos else None)
+            if info is None:
+                continue
+            if bar is not None:
+                next(bar, None)
+            cam = _core.Camera(int(info.width), int(info.height), float(info.K[0]), float(info.K[4]),
+                               float(info.K[2]), float(info.K[5]))
+            if pipe is None:
+                pipe = _core.Pipeline(cam, _core.Config(**config))
+                pipe_f = _core.Pipeline(cam, _core.Config(**{**config, "intensity_filter": True}))
+            depth = image_to_array(msg)
+            try:
+                q, t = tf.lookup(opts.base_frame, msg.header.frame_id, st, opts.tf_tolerance)
+                h, p, r, yaw = _core.pose_from_optical_transform((q, t), opts.base_frame_height)
+                xy = (t[0], t[1], yaw)
+            except LookupError:
+                h, p, r, xy = pipe.config.sensor_height, pipe.config.sensor_pitch, pipe.config.sensor_roll, (0.0, 0.0, 0.0)
+            res = pipe.process_pose(depth, h, p, r)
+            res_f = pipe_f.process_pose(depth, h, p, r)
+            rec = FrameRecord(st, 0.0, (h, p, r), xy, res.ranges, res.intensities, res_f.ranges, res.times["total"])
+            out.angle_min, out.angle_increment = res.angle_min, res.angle_increment
+            rec.gt_scan = pending["gt_scan"].get(st)
+            gt = pending["gt_labels"].get(st)
+            if gt is not None:
+                rec.labels_match = float((gt == res.labels).mean())
+            lid = pending["lidar"].get(st) or (pending["lidar"][max(pending["lidar"])] if pending["lidar"] else None)
+            if lid is not None:
+                try:
+                    lq, lt = tf.lookup(opts.base_frame, lid.header.frame_id, st, opts.tf_tolerance)
+                    yaw_l = _core.roll_pitch_yaw(lq)[2]
+                    rec.lidar = (np.array(lid.ranges, np.float32), lid.angle_min, lid.angle_increment, (lt[0], lt[1], yaw_l))
+                except LookupError:
+                    pass
+            out.frames.append(rec)
+            score = abs(p)
+            if score > best_score:
+                best_score = score
+                out.showcase = (depth.copy(), res, float(pipe.config.max_depth))
+        if bar is not None:
+            for _ in bar:
+                pass
+    finally:
+        reader.close()
+    if not out.frames:
+        raise ReplayError(f"{bag}: no depth frame with a camera_info on {depth_topic}")
+    return out
+
+
+def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float, float, float]) -> np.ndarray:
+    a = angle_min + inc * np.arange(len(ranges)) + pose[2]
+    ok = np.isfinite(ranges)
+    return np.stack([pose[0] + ranges[ok] * np.cos(a[ok]), pose[1] + ranges[ok] * np.sin(a[ok])], axis=1)
+
+
+def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, show_progress: bool = True) -> dict[str, Any]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    opts = opts or ReplayOptions()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    c = collect(bag, opts, show_progress)
+    assert c.showcase is not None
+    depth, res, max_depth = c.showcase
+    pictures: list[tuple[str, str]] = []
+
+    # 1. Raw, cleaned and labelled depth.
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.4))
+    for a, img, title in ((ax[0], to_metres(depth, max_depth), "raw depth"),
+                          (ax[1], to_metres(res.depth, max_depth), "cleaned depth")):
+        im = a.imshow(img, cmap="viridis", vmin=0, vmax=min(max_depth, 8.0))
+        a.set_title(title)
+        a.axis("off")
+    fig.colorbar(im, ax=ax[:2].tolist(), shrink=0.8, label="depth [m]")
+    ax[2].imshow(_core.colour_labels(res.depth, res.labels, max_depth))
+    ax[2].set_title("labels: green floor, blue above ceiling plane, magenta below floor, black invalid")
+    ax[2].axis("off")
+    _save_atomic(fig, out_dir / "frame.png")
+    plt.close(fig)
+    pictures.append(("frame.png", "Raw, cleaned and labelled depth of the frame with the largest pitch"))
+
+    # 2. The Kinect scan over the LiDAR scan, robot frame, 1 m grid.
+    fr = max(c.frames, key=lambda f: abs(f.pose[1]))
+    fig, ax = plt.subplots(figsize=(7, 7))
+    if fr.lidar is not None:
+        lp = _points(fr.lidar[0], fr.lidar[1], fr.lidar[2], fr.lidar[3])
+        ax.scatter(lp[:, 0], lp[:, 1], s=5, c="tab:cyan", label="LiDAR scan")
+    kp_pts = _points(fr.ranges, c.angle_min, c.angle_increment, fr.sensor_xy)
+    ax.scatter(kp_pts[:, 0], kp_pts[:, 1], s=5, c="k", label="Kinect scan")
+    ax.plot([0], [0], "r^", markersize=10, label="robot")
+    ax.set_xticks(np.arange(-1, 9))
+    ax.set_yticks(np.arange(-5, 6))
+    ax.grid(True, color="0.85")
+    ax.set_aspect("equal")
+    ax.set_xlim(-1, 8)
+    ax.set_ylim(-4.5, 4.5)
+    ax.set_xlabel("x forward [m]")
+    ax.set_ylabel("y left [m]")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"scan at {fr.stamp:.2f} s, pitch {math.degrees(fr.pose[1]):.1f} deg")
+    _save_atomic(fig, out_dir / "scan.png")
+    plt.close(fig)
+    pictures.append(("scan.png", "The Kinect scan over the LiDAR scan in the robot frame, 1 m grid (thesis fig 4.20b)"))
+
+    # 3. Confidence before / after the intensity filter, over the whole sequence.
+    fig, ax = plt.subplots(1, 2, figsize=(13, 5.5), sharex=True, sharey=True)
+    for a, key, title in ((ax[0], "ranges", "without intensity filter"), (ax[1], "filtered", "with intensity filter")):
+        xs, ys, cs = [], [], []
+        for f in c.frames:
+            pts = _points(getattr(f, key), c.angle_min, c.angle_increment, f.sensor_xy)
+            ok = np.isfinite(getattr(f, key))
+            xs.append(pts[:, 0])
+            ys.append(pts[:, 1])
+            cs.append(f.intensities[ok])
+        sc = a.scatter(np.concatenate(xs), np.concatenate(ys), s=2, c=np.concatenate(cs), cmap="autumn", vmin=0, vmax=1)
+        a.set_title(title)
+        a.grid(True, color="0.85")
+        a.set_aspect("equal")
+        a.set_xlabel("x forward [m]")
+    ax[0].set_ylabel("y left [m]")
+    fig.colorbar(sc, ax=ax.tolist(), shrink=0.7, label="intensity (confidence)")
+    _save_atomic(fig, out_dir / "confidence.png")
+    plt.close(fig)
+    pictures.append(("confidence.png", "All scans of the bag, coloured by confidence, before and after the filter (fig 4.21)"))
+
+    # 4. Timing.
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    ax.plot([f.ms for f in c.frames], ".-")
+    ax.set_xlabel("frame")
+    ax.set_ylabel("core time per frame [ms]")
+    ax.grid(True, color="0.85")
+    _save_atomic(fig, out_dir / "timing.png")
+    plt.close(fig)
+    pictures.append(("timing.png", "Per-frame processing time of the core"))
+
+    summary: dict[str, Any] = {
+        "bag": str(bag), "frames": len(c.frames),
+        "ms_per_frame_median": float(np.median([f.ms for f in c.frames])),
+        "pitch_deg_range": [math.degrees(min(f.pose[1] for f in c.frames)), math.degrees(max(f.pose[1] for f in c.frames))],
+    }
+    with_gt = [f for f in c.frames if f.gt_scan is not None]
+    if with_gt:
+        phantom = missed = beams = 0
+        for f in with_gt:
+            real = np.minimum(f.gt_scan, np.minimum(np.roll(f.gt_scan, 1), np.roll(f.gt_scan, -1)))
+            fin = np.isfinite(f.ranges)
+            phantom += int((fin & (f.ranges < real - 0.05)).sum())
+            seen = np.isfinite(f.gt_scan)
+            missed += int((seen & (~fin | (f.ranges > f.gt_scan + 0.10))).sum())
+            beams += len(f.ranges)
+        summary["phantom_beams"] = phantom / beams
+        summary["missed_beams"] = missed / beams
+        summary["label_agreement_min"] = float(np.nanmin([f.labels_match for f in with_gt]))
+        tmp = out_dir / "quality.json.tmp"
+        tmp.write_text(json.dumps(summary, indent=1))
+        os.replace(tmp, out_dir / "quality.json")
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
+    figs = "".join(f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
+                   for p, t in pictures)
+    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
+            f"<h1>kinect_pipeline report</h1><p>{html.escape(str(bag))}</p><table>{rows}</table>{figs}</body></html>")
+    tmp = out_dir / "index.html.tmp"
+    tmp.write_text(page)
+    os.replace(tmp, out_dir / "index.html")
+    summary["pictures"] = [p for p, _ in pictures] + ["index.html"]
+    return summary
