@@ -128,6 +128,23 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_regress(args: argparse.Namespace) -> int:
+    from .regress import regress
+
+    override: dict[str, object] = {}
+    for item in args.param or []:
+        key, _, value = item.partition("=")
+        try:
+            override[key] = json.loads(value)
+        except json.JSONDecodeError:
+            override[key] = value
+    lines, problems = regress(update=args.update, config_override=override)
+    print("\n".join(lines))
+    for p in problems:
+        print(p, file=sys.stderr)
+    return 1 if problems else 0
+
+
 def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
@@ -220,6 +237,11 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--base-frame", default="base_footprint")
     rep.add_argument("--quiet", action="store_true")
     rep.set_defaults(func=cmd_report)
+
+    g = sub.add_parser("regress", help="replay seeded reference bags and compare with the golden outputs")
+    g.add_argument("--update", action="store_true", help="rewrite the golden files (test/golden/*.npz)")
+    g.add_argument("--param", action="append", metavar="NAME=VALUE", help="run with a Config field changed")
+    g.set_defaults(func=cmd_regress)
 
     c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
     c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")

@@ -37,6 +37,7 @@ class FrameRecord:
     gt_scan: np.ndarray | None = None
     gt_labels: np.ndarray | None = None
     labels_match: float = math.nan
+    labels: np.ndarray | None = None
 
 
 @dataclass
@@ -47,7 +48,7 @@ class Collected:
     showcase: tuple[np.ndarray, Any, float] | None = None  # depth, result, max_depth
 
 
-def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True) -> Collected:
+def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_labels: bool = False) -> Collected:
     """Runs two pipelines over the bag: the configured one, and the same with the intensity filter on."""
     from rosbags.rosbag1 import Reader, ReaderError
 
@@ -113,6 +114,8 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True) -> Colle
             rec = FrameRecord(st, 0.0, (h, p, r), xy, res.ranges, res.intensities, res_f.ranges, res.times["total"])
             out.angle_min, out.angle_increment = res.angle_min, res.angle_increment
             rec.gt_scan = pending["gt_scan"].get(st)
+            if keep_labels:
+                rec.labels = res.labels
             gt = pending["gt_labels"].get(st)
             if gt is not None:
                 rec.labels_match = float((gt == res.labels).mean())

@@ -1,0 +1,31 @@
+"""The golden-output regression check passes on main and fails, naming what moved, when the pipeline changes."""
+
+from __future__ import annotations
+
+import pytest
+
+pytest.importorskip("rosbags")
+
+from kinect_pipeline.cli import main  # noqa: E402
+from kinect_pipeline.regress import CASES, GOLDEN_DIR  # noqa: E402
+
+
+def test_golden_files_are_small_and_present() -> None:
+    for case in CASES:
+        path = GOLDEN_DIR / f"{case.name}.npz"
+        assert path.exists(), f"{path}: run 'kinect-pipeline regress --update'"
+        assert path.stat().st_size < 200_000
+
+
+def test_regress_passes_on_the_current_pipeline(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["regress"]) == 0, capsys.readouterr().err
+    assert capsys.readouterr().out.count(": ok") == len(CASES)
+
+
+def test_regress_fails_and_says_what_moved_when_the_pipeline_changes(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["regress", "--param", "range_max=3.0"]) == 1
+    err = capsys.readouterr().err
+    assert "ranges:" in err and "beam(s) moved" in err and "deg)" in err
+    assert main(["regress", "--param", 'threshold_curve="1:0.02, 3:0.05, 6:0.2"']) == 1
+    err = capsys.readouterr().err
+    assert "labels:" in err and "% of pixels changed" in err and "label moves" in err
