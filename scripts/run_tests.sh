@@ -18,6 +18,22 @@ cmake --build build/cmake --target run_tests -- --no-print-directory >build/run_
 grep -E "^\[  (PASSED|FAILED) \]|^\[==========\]|Failure" build/run_tests.log || true
 cpp_status=0
 catkin_test_results build/cmake/test_results || cpp_status=$?
+echo "== C++ core under AddressSanitizer + UndefinedBehaviorSanitizer =="
+san_status=0
+rm -f build/asan_results.xml
+if [ ! -f build/asan/Makefile ]; then
+  cmake -S test/sanitize -B build/asan >build/asan_configure.log 2>&1 || { cat build/asan_configure.log; san_status=1; }
+fi
+if [ "$san_status" -eq 0 ]; then
+  cmake --build build/asan -j"$(nproc)" >build/asan_build.log 2>&1 || { tail -30 build/asan_build.log; san_status=1; }
+fi
+if [ "$san_status" -eq 0 ]; then
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    build/asan/test_core_asan --gtest_output=xml:build/asan_results.xml >build/asan_run.log 2>&1 || san_status=$?
+  tail -3 build/asan_run.log
+  [ "$san_status" -eq 0 ] || grep -E "ERROR|runtime error|FAILED" build/asan_run.log | head -20
+fi
+
 echo "== Python tests (pytest) =="
 py_status=0
 python3 -m pytest test/python -q -p no:cacheprovider --junitxml=build/pytest.xml || py_status=$?
@@ -27,7 +43,7 @@ import glob
 import xml.etree.ElementTree as ET
 counts = {"passed": 0, "failed": 0, "skipped": 0}
 totals = {"cpp": 0, "py": 0}
-for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + ["build/pytest.xml"]:
+for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + ["build/asan_results.xml", "build/pytest.xml"]:
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError):
@@ -44,6 +60,6 @@ print(counts["passed"], counts["failed"], counts["skipped"], totals["cpp"], tota
 PY
 )"
 echo "kinect_pipeline: $passed passed, $failed failed, $skipped skipped"
-if [ "$cpp_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
+if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
   exit 1
 fi
