@@ -145,6 +145,34 @@ def cmd_regress(args: argparse.Namespace) -> int:
     return 1 if problems else 0
 
 
+def cmd_curve(args: argparse.Namespace) -> int:
+    from . import _core
+    from .calibrate import CalibrationError, load_depth
+    from .curve import curve_from_model, describe, fit_curve, plot, set_live, write_yaml
+
+    try:
+        if args.from_model:
+            fit = curve_from_model(args.from_model[0], args.from_model[1], args.rate, args.margin)
+        else:
+            if not args.files or not args.intrinsics:
+                raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K")
+            frames = [(f, load_depth(Path(f), args.depth_scale)) for f in args.files]
+            h, w = frames[0][1].shape
+            fit = fit_curve(frames, _core.Camera(w, h, *args.intrinsics), args.rate, args.margin)
+    except CalibrationError as exc:
+        raise ToolError(str(exc)) from exc
+    print(describe(fit))
+    if args.output:
+        write_yaml(fit, Path(args.output))
+        print(f"YAML: {args.output}")
+    if args.plot:
+        plot(fit, _core.Config().threshold_curve, Path(args.plot))
+        print(f"plot: {args.plot}")
+    if args.set_node:
+        print(f"set on {args.set_node}: {set_live(args.set_node, fit)['threshold_curve']}")
+    return 0
+
+
 def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
@@ -242,6 +270,19 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--update", action="store_true", help="rewrite the golden files (test/golden/*.npz)")
     g.add_argument("--param", action="append", metavar="NAME=VALUE", help="run with a Config field changed")
     g.set_defaults(func=cmd_regress)
+
+    cv = sub.add_parser("curve", help="threshold curve t(d) from floor frames (or a noise model) -> YAML, plot")
+    cv.add_argument("files", nargs="*", help="floor frames (as for calibrate)")
+    cv.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
+    cv.add_argument("--depth-scale", type=float, default=0.001)
+    cv.add_argument("--rate", type=float, default=1e-3, help="false-obstacle rate per floor pixel (default 0.001)")
+    cv.add_argument("--margin", type=float, default=0.01, help="added to k sigma [m]")
+    cv.add_argument("--from-model", nargs=2, type=float, metavar=("SIGMA0", "K"),
+                    help="no data: sigma(d) = SIGMA0 + K (d - 0.4)^2 [m] (Kinect v2: 0.0015 0.0019)")
+    cv.add_argument("-o", "--output", help="write the curve as YAML (rosparam / dynamic_reconfigure)")
+    cv.add_argument("--plot", help="write a PNG of the residuals and the curves")
+    cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
+    cv.set_defaults(func=cmd_curve)
 
     c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
     c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
