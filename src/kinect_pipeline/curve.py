@@ -68,25 +68,31 @@ def fit_curve(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, false_
         keep = np.abs(r) < band
         depths.append(d[keep])
         residuals.append(r[keep])
-    d = np.concatenate(depths)
-    r = np.concatenate(residuals)
-    if len(d) < 500:
-        raise ValueError(f"curve: only {len(d)} floor pixels: expected at least 500")
-    bins = []
-    for lo in np.arange(0.0, 12.0, bin_width):
-        m = (d >= lo) & (d < lo + bin_width)
-        if m.sum() >= min_samples:
-            x = r[m]
-            sigma = 1.4826 * float(np.median(np.abs(x - np.median(x))))
-            bins.append((lo + bin_width / 2, sigma, int(m.sum())))
-    if len(bins) < 2:
-        raise ValueError("curve: the floor spans fewer than two depth bins: need floor at more depths")
-    bd = np.array([b[0] for b in bins])
-    bs = np.array([b[1] for b in bins])
-    bw = np.sqrt(np.array([b[2] for b in bins], float))
-    a = np.stack([np.ones_like(bd), (bd - 0.4) ** 2], axis=1)
-    coef, *_ = np.linalg.lstsq(a * bw[:, None], bs * bw, rcond=None)
-    sigma0, k_quad = max(float(coef[0]), 1e-4), max(float(coef[1]), 0.0)
+    d_all = np.concatenate(depths)
+    r_all = np.concatenate(residuals)
+    if len(d_all) < 500:
+        raise ValueError(f"curve: only {len(d_all)} floor pixels: expected at least 500")
+    sigma0, k_quad = 0.003, 0.004
+    bins: list[tuple[float, float, int]] = []
+    for _ in range(3):
+        # Re-select the floor with the last fit (4 sigma): clutter lying on the floor drops out.
+        keep = np.abs(r_all) < np.maximum(0.02, 4 * _core.kinect_sigma(d_all, sigma0, k_quad))
+        d, r = d_all[keep], r_all[keep]
+        bins = []
+        for lo in np.arange(0.0, 12.0, bin_width):
+            m = (d >= lo) & (d < lo + bin_width)
+            if m.sum() >= min_samples:
+                x = r[m]
+                sigma = 1.4826 * float(np.median(np.abs(x - np.median(x))))
+                bins.append((lo + bin_width / 2, sigma, int(m.sum())))
+        if len(bins) < 2:
+            raise ValueError("curve: the floor spans fewer than two depth bins: need floor at more depths")
+        bd = np.array([b[0] for b in bins])
+        bs = np.array([b[1] for b in bins])
+        bw = np.sqrt(np.array([b[2] for b in bins], float))
+        a = np.stack([np.ones_like(bd), (bd - 0.4) ** 2], axis=1)
+        coef, *_ = np.linalg.lstsq(a * bw[:, None], bs * bw, rcond=None)
+        sigma0, k_quad = max(float(coef[0]), 1e-4), max(float(coef[1]), 0.0)
     fit = curve_from_model(sigma0, k_quad, false_obstacle_rate, margin)
     fit.bins = bins
     sub = np.random.default_rng(0).choice(len(d), size=min(len(d), 20000), replace=False)
