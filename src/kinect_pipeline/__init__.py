@@ -31,13 +31,13 @@ KINECT_V2_HFOV = 1.2322
 KINECT_V2_VFOV = 1.0472
 
 __all__ = [
+    "KINECT_V2_HFOV",
+    "KINECT_V2_VFOV",
+    "LABELS",
     "Camera",
     "Config",
     "Pipeline",
     "Result",
-    "LABELS",
-    "KINECT_V2_HFOV",
-    "KINECT_V2_VFOV",
     "add_kinect_noise",
     "default_threshold_curve",
     "encode_depth",

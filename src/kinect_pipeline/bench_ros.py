@@ -28,13 +28,15 @@ class Measurement:
     latencies_ms: np.ndarray
     cpu_percent: float
 
-    def row(self, relay: "Measurement | None") -> str:
+    def row(self, relay: Measurement | None) -> str:
         med, p99 = np.median(self.latencies_ms), np.percentile(self.latencies_ms, 99)
         added = ""
         if relay is not None and relay is not self:
             added = f"{med - np.median(relay.latencies_ms):+.3f} / {p99 - np.percentile(relay.latencies_ms, 99):+.3f}"
-        return (f"| {self.name} | {self.sent} | {self.received} | {self.sent - self.received} | {med:.3f} | {p99:.3f} "
-                f"| {added or '–'} | {self.cpu_percent:.1f} |")
+        return (
+            f"| {self.name} | {self.sent} | {self.received} | {self.sent - self.received} | {med:.3f} | {p99:.3f} "
+            f"| {added or '–'} | {self.cpu_percent:.1f} |"
+        )
 
 
 def _free_port() -> int:
@@ -84,8 +86,13 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
     work = Path(tempfile.mkdtemp(prefix="kp-bench-ros-"))
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1", ROS_HOME=str(work))
     os.environ.update({k: env[k] for k in ("ROS_MASTER_URI", "ROS_IP", "ROS_HOME")})
-    core = subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+    core = subprocess.Popen(
+        ["roscore", "-p", str(port)],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     results: list[Measurement] = []
     try:
         import rosgraph
@@ -98,8 +105,14 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
         rospy.init_node("kp_bench_ros", anonymous=True, disable_signals=True)
         cam = kinect_v2_camera()
         frame = render_frame(cam, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=3)
-        img = Image(height=cam.height, width=cam.width, encoding="16UC1", is_bigendian=0, step=cam.width * 2,
-                    data=frame.depth.tobytes())
+        img = Image(
+            height=cam.height,
+            width=cam.width,
+            encoding="16UC1",
+            is_bigendian=0,
+            step=cam.width * 2,
+            data=frame.depth.tobytes(),
+        )
         img.header.frame_id = "kinect2_depth_optical_frame"
         info = CameraInfo(width=cam.width, height=cam.height, K=[cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1])
         info.header.frame_id = img.header.frame_id
@@ -109,24 +122,53 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
         params = work / "params.yaml"
         params.write_text(f"num_threads: {threads}\n")
         subjects = [
-            ("image_transport relay", ["rosrun", "image_transport", "republish", "raw",
-                                       "in:=/kinect2/sd/image_depth", "raw", "out:=/relay/image"], "/relay/image", Image),
-            ("kinect_pipeline node", ["roslaunch", "kinect_pipeline", "kinect_pipeline.launch", "pose_source:=static",
-                                      "sensor_pitch:=0.26", f"params:={params}"], "/kinect2/scan", LaserScan),
-            ("kinect_pipeline nodelet", ["roslaunch", "kinect_pipeline", "bench_nodelet.launch", f"params:={params}"], "/kinect2/scan", LaserScan),
+            (
+                "image_transport relay",
+                [
+                    "rosrun",
+                    "image_transport",
+                    "republish",
+                    "raw",
+                    "in:=/kinect2/sd/image_depth",
+                    "raw",
+                    "out:=/relay/image",
+                ],
+                "/relay/image",
+                Image,
+            ),
+            (
+                "kinect_pipeline node",
+                [
+                    "roslaunch",
+                    "kinect_pipeline",
+                    "kinect_pipeline.launch",
+                    "pose_source:=static",
+                    "sensor_pitch:=0.26",
+                    f"params:={params}",
+                ],
+                "/kinect2/scan",
+                LaserScan,
+            ),
+            (
+                "kinect_pipeline nodelet",
+                ["roslaunch", "kinect_pipeline", "bench_nodelet.launch", f"params:={params}"],
+                "/kinect2/scan",
+                LaserScan,
+            ),
         ]
         for name, cmd, topic, msg_type in subjects:
             lat: list[float] = []
             lock = threading.Lock()
 
-            def on_msg(m: Any) -> None:
+            def on_msg(m: Any, lat: list[float] = lat, lock: threading.Lock = lock) -> None:
                 now = rospy.get_rostime()
                 with lock:
                     lat.append((now - m.header.stamp).to_sec() * 1e3)
 
             sub = rospy.Subscriber(topic, msg_type, on_msg, queue_size=100, tcp_nodelay=True)
-            proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                    start_new_session=True)
+            proc = subprocess.Popen(
+                cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+            )
             try:
                 # Warm up until output flows (deadline), then measure.
                 deadline = time.monotonic() + 60
@@ -173,7 +215,8 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
 def report(results: list[Measurement]) -> str:
     relay = next((r for r in results if "relay" in r.name), None)
     lines = [
-        "| subject | frames sent | received | dropped | latency median [ms] | p99 [ms] | added vs relay median / p99 [ms] | CPU [%] |",
+        "| subject | frames sent | received | dropped | latency median [ms] | p99 [ms] "
+        "| added vs relay median / p99 [ms] | CPU [%] |",
         "|---|---|---|---|---|---|---|---|",
     ]
     lines += [r.row(relay) for r in results]

@@ -66,21 +66,32 @@ class Calibration:
 
     def as_dict(self, parent: str = "base_footprint", child: str = "kinect2_depth_optical_frame") -> dict[str, Any]:
         d: dict[str, Any] = {
-            "found": self.found, "height": self.height, "pitch": self.pitch, "roll": self.roll,
-            "floor_fraction": self.floor_fraction, "height_std": self.height_std, "pitch_std": self.pitch_std,
-            "roll_std": self.roll_std, "pitch_deg": math.degrees(self.pitch), "roll_deg": math.degrees(self.roll),
+            "found": self.found,
+            "height": self.height,
+            "pitch": self.pitch,
+            "roll": self.roll,
+            "floor_fraction": self.floor_fraction,
+            "height_std": self.height_std,
+            "pitch_std": self.pitch_std,
+            "roll_std": self.roll_std,
+            "pitch_deg": math.degrees(self.pitch),
+            "roll_deg": math.degrees(self.roll),
             "frames": self.frames,
         }
         if self.message:
             d["message"] = self.message
         if self.found:
-            d["launch_args"] = (f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} "
-                                f"pose_source:=static")
-            d["yaml"] = {"sensor_height": round(self.height, 4), "sensor_pitch": round(self.pitch, 5),
-                         "sensor_roll": round(self.roll, 5)}
+            d["launch_args"] = f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} pose_source:=static"
+            d["yaml"] = {
+                "sensor_height": round(self.height, 4),
+                "sensor_pitch": round(self.pitch, 5),
+                "sensor_roll": round(self.roll, 5),
+            }
             q = optical_quaternion(self.pitch, self.roll)
-            d["static_transform"] = (f"rosrun tf2_ros static_transform_publisher 0 0 {self.height:.4f} "
-                                     f"{q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} {parent} {child}")
+            d["static_transform"] = (
+                f"rosrun tf2_ros static_transform_publisher 0 0 {self.height:.4f} "
+                f"{q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} {parent} {child}"
+            )
         return d
 
 
@@ -98,15 +109,27 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
     per: list[dict[str, Any]] = []
     for name, metres in frames:
         if metres.shape != (camera.height, camera.width):
-            raise CalibrationError(f"{name}: {metres.shape[1]}x{metres.shape[0]} but the intrinsics are for "
-                                   f"{camera.width}x{camera.height} (give --size W H if the principal point is off)")
+            raise CalibrationError(
+                f"{name}: {metres.shape[1]}x{metres.shape[0]} but the intrinsics are for "
+                f"{camera.width}x{camera.height} (give --size W H if the principal point is off)"
+            )
         r = dict(_core.calibrate_from_floor(metres, camera, **options))
         r["file"] = name
         per.append(r)
     good = [r for r in per if r["found"]]
     if not good:
-        return Calibration(False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, per,
-                           f"no floor found in {len(per)} frame(s): no plane facing up with enough pixels")
+        return Calibration(
+            False,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            per,
+            f"no floor found in {len(per)} frame(s): no plane facing up with enough pixels",
+        )
     w = np.array([r["floor_pixels"] for r in good], float)
 
     def mean(key: str) -> float:
@@ -117,5 +140,14 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         between = float(np.std([r[key] for r in good], ddof=1) / math.sqrt(len(good))) if len(good) > 1 else 0.0
         return max(fit, between)
 
-    return Calibration(True, mean("height"), mean("pitch"), mean("roll"), mean("floor_fraction"),
-                       spread("height"), spread("pitch"), spread("roll"), per)
+    return Calibration(
+        True,
+        mean("height"),
+        mean("pitch"),
+        mean("roll"),
+        mean("floor_fraction"),
+        spread("height"),
+        spread("pitch"),
+        spread("roll"),
+        per,
+    )

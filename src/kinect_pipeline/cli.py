@@ -27,9 +27,8 @@ def _bench_binary() -> Path:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    from .demo import run_demo
-
     from .bag import write_sequence_bag
+    from .demo import run_demo
     from .replay import format_report, replay
     from .report import write_report
 
@@ -51,14 +50,23 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def cmd_synth(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
 
-    summary = write_sequence_bag(Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed,
-                                 show_progress=not args.quiet)
+    summary = write_sequence_bag(
+        Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed, show_progress=not args.quiet
+    )
     print(json.dumps(summary))
     return 0
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
-    cmd = [str(_bench_binary()), "--frames", str(args.frames), "--kernel", str(args.kernel), "--projection", args.projection]
+    cmd = [
+        str(_bench_binary()),
+        "--frames",
+        str(args.frames),
+        "--kernel",
+        str(args.kernel),
+        "--projection",
+        args.projection,
+    ]
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)
@@ -74,9 +82,15 @@ def cmd_replay(args: argparse.Namespace) -> int:
             config[key] = json.loads(value)
         except json.JSONDecodeError:
             config[key] = value
-    opts = ReplayOptions(depth_topic=args.depth_topic, info_topic=args.info_topic, base_frame=args.base_frame,
-                         base_frame_height=args.base_frame_height, pose_fallback=args.pose_fallback,
-                         skip_bad=args.skip_bad, config=config)
+    opts = ReplayOptions(
+        depth_topic=args.depth_topic,
+        info_topic=args.info_topic,
+        base_frame=args.base_frame,
+        base_frame_height=args.base_frame_height,
+        pose_fallback=args.pose_fallback,
+        skip_bad=args.skip_bad,
+        config=config,
+    )
     try:
         report = replay(Path(args.input), Path(args.output), opts, show_progress=not args.quiet)
     except ReplayError as exc:
@@ -101,10 +115,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(d, indent=1))
     elif result.found:
-        print(f"height {result.height:.4f} m +- {result.height_std:.4f}, pitch {math.degrees(result.pitch):+.3f} deg "
-              f"+- {math.degrees(result.pitch_std):.3f}, roll {math.degrees(result.roll):+.3f} deg "
-              f"+- {math.degrees(result.roll_std):.3f}; floor {100 * result.floor_fraction:.1f} % of the pixels, "
-              f"{len(frames)} frame(s)")
+        print(
+            f"height {result.height:.4f} m +- {result.height_std:.4f}, pitch {math.degrees(result.pitch):+.3f} deg "
+            f"+- {math.degrees(result.pitch_std):.3f}, roll {math.degrees(result.roll):+.3f} deg "
+            f"+- {math.degrees(result.roll_std):.3f}; floor {100 * result.floor_fraction:.1f} % of the pixels, "
+            f"{len(frames)} frame(s)"
+        )
         print(f"launch args: {d['launch_args']}")
         print("YAML:\n" + "\n".join(f"{k}: {v}" for k, v in d["yaml"].items()))
         print(f"static tf: {d['static_transform']}")
@@ -177,8 +193,10 @@ def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
     results = run(frames=args.frames, rate=args.rate, threads=args.threads)
-    print(f"image -> output latency at {args.rate:g} Hz, 512x424 16UC1, {args.frames} frames each, "
-          f"num_threads {args.threads}, same run:")
+    print(
+        f"image -> output latency at {args.rate:g} Hz, 512x424 16UC1, {args.frames} frames each, "
+        f"num_threads {args.threads}, same run:"
+    )
     print(report(results))
     return 0
 
@@ -187,8 +205,10 @@ def cmd_quality(args: argparse.Namespace) -> int:
     from .quality import evaluate, table
 
     rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
-    print(f"lab scene, Kinect v2 at 1.1 m tilted 15 deg, {args.frames} frames per condition, {args.encoding}, "
-          "Kinect noise + dropouts + flying pixels + 8 m range; means over frames:")
+    print(
+        f"lab scene, Kinect v2 at 1.1 m tilted 15 deg, {args.frames} frames per condition, {args.encoding}, "
+        "Kinect noise + dropouts + flying pixels + 8 m range; means over frames:"
+    )
     print(table(rows))
     return 0
 
@@ -202,8 +222,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from .scenes import lab_scene, render_frame
 
     cam = kinect_v2_camera()
-    cond = [(0.0, 0.0), (math.radians(6), math.radians(2)), (-math.radians(6), math.radians(2)), (math.radians(3), -math.radians(2))]
-    print("| encoding | frames | floor removed (<6 m) min | obstacles 5 cm..1.95 m kept min | above ceiling removed min | phantom beams max |")
+    cond = [
+        (0.0, 0.0),
+        (math.radians(6), math.radians(2)),
+        (-math.radians(6), math.radians(2)),
+        (math.radians(3), -math.radians(2)),
+    ]
+    print(
+        "| encoding | frames | floor removed (<6 m) min | obstacles 5 cm..1.95 m kept min "
+        "| above ceiling removed min | phantom beams max |"
+    )
     print("|---|---|---|---|---|---|")
     for enc in args.encodings:
         rows = []
@@ -214,7 +242,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             q = frame_quality(pipe.process(f.depth, bp, br), f)
             rows.append([q.floor_removed, q.obstacles_kept, q.above_ceiling_removed, q.phantom_beams])
         a = np.array(rows)
-        print(f"| {enc} | {len(rows)} | {np.nanmin(a[:, 0]):.4f} | {np.nanmin(a[:, 1]):.4f} | {np.nanmin(a[:, 2]):.4f} | {np.nanmax(a[:, 3]):.4f} |")
+        print(
+            f"| {enc} | {len(rows)} | {np.nanmin(a[:, 0]):.4f} | {np.nanmin(a[:, 1]):.4f} "
+            f"| {np.nanmin(a[:, 2]):.4f} | {np.nanmax(a[:, 3]):.4f} |"
+        )
     return 0
 
 
@@ -244,21 +275,29 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--markdown", action="store_true", help="print a Markdown table")
     b.set_defaults(func=cmd_bench)
 
-    rp = sub.add_parser("replay", help="run the pipeline over a bag at the pose its tf gives; write scan + cleaned image")
+    rp = sub.add_parser(
+        "replay", help="run the pipeline over a bag at the pose its tf gives; write scan + cleaned image"
+    )
     rp.add_argument("input", help="ROS 1 bag with a depth image, its camera_info and tf")
     rp.add_argument("-o", "--output", required=True, help="new bag: the input's messages plus the outputs")
     rp.add_argument("--depth-topic", help="depth Image topic (default: the only one with 'depth' in its name)")
     rp.add_argument("--info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)")
     rp.add_argument("--base-frame", default="base_footprint", help="gravity-aligned frame on the floor")
     rp.add_argument("--base-frame-height", type=float, default=0.0, help="its origin's height above the floor [m]")
-    rp.add_argument("--pose-fallback", choices=["static", "skip"], default="static",
-                   help="frames without tf: static pose from the parameters, or skip them")
+    rp.add_argument(
+        "--pose-fallback",
+        choices=["static", "skip"],
+        default="static",
+        help="frames without tf: static pose from the parameters, or skip them",
+    )
     rp.add_argument("--skip-bad", action="store_true", help="skip damaged data instead of stopping")
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
 
-    rep = sub.add_parser("report", help="pictures and an index.html for a bag (frame, scan vs LiDAR, confidence, timing)")
+    rep = sub.add_parser(
+        "report", help="pictures and an index.html for a bag (frame, scan vs LiDAR, confidence, timing)"
+    )
     rep.add_argument("input", help="ROS 1 bag with a depth image, its camera_info and tf")
     rep.add_argument("-o", "--out", required=True, help="output folder")
     rep.add_argument("--depth-topic")
@@ -277,8 +316,13 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("--depth-scale", type=float, default=0.001)
     cv.add_argument("--rate", type=float, default=1e-3, help="false-obstacle rate per floor pixel (default 0.001)")
     cv.add_argument("--margin", type=float, default=0.01, help="added to k sigma [m]")
-    cv.add_argument("--from-model", nargs=2, type=float, metavar=("SIGMA0", "K"),
-                    help="no data: sigma(d) = SIGMA0 + K (d - 0.4)^2 [m] (Kinect v2: 0.0015 0.0019)")
+    cv.add_argument(
+        "--from-model",
+        nargs=2,
+        type=float,
+        metavar=("SIGMA0", "K"),
+        help="no data: sigma(d) = SIGMA0 + K (d - 0.4)^2 [m] (Kinect v2: 0.0015 0.0019)",
+    )
     cv.add_argument("-o", "--output", help="write the curve as YAML (rosparam / dynamic_reconfigure)")
     cv.add_argument("--plot", help="write a PNG of the residuals and the curves")
     cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
@@ -289,9 +333,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--intrinsics", nargs=4, type=float, required=True, metavar=("FX", "FY", "CX", "CY"))
     c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
     c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
-    c.add_argument("--max-tilt", type=float, default=40.0,
-                   help="largest |pitch| / roll considered [deg]: a wall seen by a level camera looks like a floor "
-                        "seen by a steeply tilted one")
+    c.add_argument(
+        "--max-tilt",
+        type=float,
+        default=40.0,
+        help="largest |pitch| / roll considered [deg]: a wall seen by a level camera looks like a floor "
+        "seen by a steeply tilted one",
+    )
     c.add_argument("--json", action="store_true", help="print JSON (height, pitch, roll [m, rad], floor_fraction, ...)")
     c.add_argument("--base-frame", default="base_footprint")
     c.add_argument("--optical-frame", default="kinect2_depth_optical_frame")

@@ -39,8 +39,9 @@ class CurveFit:
         return ", ".join(f"{d:g}:{t:.4f}" for d, t in self.points)
 
 
-def curve_from_model(sigma0: float, k_quad: float, false_obstacle_rate: float, margin: float,
-                     depths: tuple[float, ...] = DEPTHS) -> CurveFit:
+def curve_from_model(
+    sigma0: float, k_quad: float, false_obstacle_rate: float, margin: float, depths: tuple[float, ...] = DEPTHS
+) -> CurveFit:
     k = NormalDist().inv_cdf(1.0 - false_obstacle_rate)
     pts, last = [], 0.0
     for d in depths:
@@ -50,8 +51,14 @@ def curve_from_model(sigma0: float, k_quad: float, false_obstacle_rate: float, m
     return CurveFit(sigma0, k_quad, k, margin, pts)
 
 
-def fit_curve(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, false_obstacle_rate: float = 1e-3,
-              margin: float = 0.01, bin_width: float = 0.25, min_samples: int = 50) -> CurveFit:
+def fit_curve(
+    frames: list[tuple[str, np.ndarray]],
+    camera: _core.Camera,
+    false_obstacle_rate: float = 1e-3,
+    margin: float = 0.01,
+    bin_width: float = 0.25,
+    min_samples: int = 50,
+) -> CurveFit:
     cal = calibrate(frames, camera)
     if not cal.found:
         raise ValueError(f"curve: {cal.message}")
@@ -103,8 +110,10 @@ def fit_curve(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, false_
 
 def write_yaml(fit: CurveFit, path: Path) -> None:
     """dynamic_reconfigure / rosparam YAML with the curve (written atomically)."""
-    text = (f"# kinect-pipeline curve: sigma(d) = {fit.sigma0:.5f} + {fit.k_quad:.5f} (d - 0.4)^2, "
-            f"t = {fit.k:.2f} sigma + {fit.margin:g}\nthreshold_curve: \"{fit.text}\"\n")
+    text = (
+        f"# kinect-pipeline curve: sigma(d) = {fit.sigma0:.5f} + {fit.k_quad:.5f} (d - 0.4)^2, "
+        f't = {fit.k:.2f} sigma + {fit.margin:g}\nthreshold_curve: "{fit.text}"\n'
+    )
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     with os.fdopen(fd, "w") as f:
         f.write(text)
@@ -149,10 +158,14 @@ def set_live(node: str, fit: CurveFit, timeout: float = 5.0) -> dict[str, Any]:
 
 
 def describe(fit: CurveFit) -> str:
-    lines = [f"sigma(d) = {1000 * fit.sigma0:.2f} mm + {1000 * fit.k_quad:.2f} mm (d - 0.4 m)^2; "
-             f"t = {fit.k:.2f} sigma + {fit.margin:g} m"]
+    lines = [
+        f"sigma(d) = {1000 * fit.sigma0:.2f} mm + {1000 * fit.k_quad:.2f} mm (d - 0.4 m)^2; "
+        f"t = {fit.k:.2f} sigma + {fit.margin:g} m"
+    ]
     if fit.pose:
-        lines.append(f"pose: height {fit.pose[0]:.3f} m, pitch {math.degrees(fit.pose[1]):+.2f} deg, "
-                     f"roll {math.degrees(fit.pose[2]):+.2f} deg")
-    lines.append(f"threshold_curve: \"{fit.text}\"")
+        lines.append(
+            f"pose: height {fit.pose[0]:.3f} m, pitch {math.degrees(fit.pose[1]):+.2f} deg, "
+            f"roll {math.degrees(fit.pose[2]):+.2f} deg"
+        )
+    lines.append(f'threshold_curve: "{fit.text}"')
     return "\n".join(lines)

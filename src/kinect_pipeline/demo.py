@@ -6,15 +6,17 @@ import json
 import math
 import os
 import tempfile
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 import numpy as np
 
 from . import _core, kinect_v2_camera
 from .metrics import FrameQuality, frame_quality, ideal_scan
 from .scenes import Frame, Scene, lab_scene, render_frame
+
 
 @dataclass
 class SegwayMotion:
@@ -88,8 +90,15 @@ def plot_frame(frame: Frame, res: _core.Result, max_depth: float, path: Path, ti
     ax[2].axis("off")
     names = {1: "invalid", 2: "floor", 3: "above ceiling plane", 4: "below floor"}
     ax[2].legend(
-        handles=[Patch(color=np.array(_core.colour_labels(np.zeros((1, 1), np.uint16), np.full((1, 1), k, np.uint8)))[0, 0] / 255,
-                       label=v) for k, v in names.items()] + [Patch(color="0.6", label="kept")],
+        handles=[
+            Patch(
+                color=np.array(_core.colour_labels(np.zeros((1, 1), np.uint16), np.full((1, 1), k, np.uint8)))[0, 0]
+                / 255,
+                label=v,
+            )
+            for k, v in names.items()
+        ]
+        + [Patch(color="0.6", label="kept")],
         loc="lower center",
         bbox_to_anchor=(0.5, -0.22),
         ncol=3,
@@ -113,12 +122,20 @@ def plot_scan(frame: Frame, res: _core.Result, path: Path, title: str) -> None:
     real = ideal_scan(truth, res.angle_min, res.angle_increment, n, (truth["object"] >= 10) & (truth["height"] < 2.0))
     fig, ax = plt.subplots(figsize=(7, 7))
     ok = np.isfinite(real)
-    ax.scatter(real[ok] * np.cos(angles[ok]), real[ok] * np.sin(angles[ok]), s=10, c="tab:cyan", label="true nearest obstacle")
+    ax.scatter(
+        real[ok] * np.cos(angles[ok]), real[ok] * np.sin(angles[ok]), s=10, c="tab:cyan", label="true nearest obstacle"
+    )
     r = res.ranges
     ok = np.isfinite(r)
     sc = ax.scatter(
-        r[ok] * np.cos(angles[ok]), r[ok] * np.sin(angles[ok]), s=4, c=res.intensities[ok], cmap="autumn",
-        vmin=0, vmax=1, label="Kinect scan (colour: confidence)",
+        r[ok] * np.cos(angles[ok]),
+        r[ok] * np.sin(angles[ok]),
+        s=4,
+        c=res.intensities[ok],
+        cmap="autumn",
+        vmin=0,
+        vmax=1,
+        label="Kinect scan (colour: confidence)",
     )
     fig.colorbar(sc, ax=ax, shrink=0.7, label="intensity (confidence)")
     ax.plot([0], [0], "k^", markersize=10, label="robot")
@@ -193,4 +210,3 @@ def run_demo(
     tmp.write_text(json.dumps({"summary": summary, "frames": [q.as_dict() for q in qualities]}, indent=1))
     os.replace(tmp, out / "quality.json")
     return summary
-

@@ -4,8 +4,9 @@ static-tilt pipeline (base pitch ignored) and a single-row band scan, all in one
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -51,13 +52,17 @@ class Row:
 
         kept = " | ".join(pct(k) for k in self.kept)
         err = "–" if math.isnan(self.range_error_cm) else f"{self.range_error_cm:.1f}"
-        return (f"| {self.condition} | {self.variant} | {pct(self.floor_removed)} | {kept} | {pct(self.phantom)} "
-                f"| {pct(self.phantom_noise)} | {pct(self.missed)} | {err} |")
+        return (
+            f"| {self.condition} | {self.variant} | {pct(self.floor_removed)} | {kept} | {pct(self.phantom)} "
+            f"| {pct(self.phantom_noise)} | {pct(self.missed)} | {err} |"
+        )
 
 
-HEADER = ("| base pitch | pipeline | floor removed (< 6 m) % | kept 5–10 cm % | kept 10–30 cm % | kept 0.3–2 m % "
-          "| phantom > 5 cm % | phantom > 5 cm + 4σ % | missed beams % | median range error [cm] |\n"
-          "|---|---|---|---|---|---|---|---|---|---|")
+HEADER = (
+    "| base pitch | pipeline | floor removed (< 6 m) % | kept 5–10 cm % | kept 10–30 cm % | kept 0.3–2 m % "
+    "| phantom > 5 cm % | phantom > 5 cm + 4σ % | missed beams % | median range error [cm] |\n"
+    "|---|---|---|---|---|---|---|---|---|---|"
+)
 
 
 def _tall_ids(scene: Scene) -> set[int]:
@@ -73,8 +78,11 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
     items = [(c, v) for c in CONDITIONS for v in VARIANTS]
     sums: dict[tuple[str, str], dict[str, list[float]]] = {k: {} for k in items}
     for cond, pitch_of in CONDITIONS.items():
-        pipes = {v: _core.Pipeline(cam, _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, **cfg))
-                 for v, (cfg, _) in VARIANTS.items() if cfg is not None}
+        pipes = {
+            v: _core.Pipeline(cam, _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, **cfg))
+            for v, (cfg, _) in VARIANTS.items()
+            if cfg is not None
+        }
         it = range(frames)
         for i in progress(it, frames, cond) if show_progress else it:
             bp = pitch_of(i)
@@ -122,12 +130,22 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
     for cond, v in items:
         acc = sums[(cond, v)]
 
-        def mean(key: str) -> float:
+        def mean(key: str, acc: dict[str, list[float]] = acc) -> float:
             vals = acc.get(key, [])
             return float(np.mean(vals)) if vals else float("nan")
 
-        rows.append(Row(cond, v, mean("floor"), tuple(mean(f"kept{k}") for k in range(len(HEIGHT_CLASSES))),
-                        mean("phantom"), mean("phantom4"), mean("missed"), 100 * mean("err")))
+        rows.append(
+            Row(
+                cond,
+                v,
+                mean("floor"),
+                tuple(mean(f"kept{k}") for k in range(len(HEIGHT_CLASSES))),
+                mean("phantom"),
+                mean("phantom4"),
+                mean("missed"),
+                100 * mean("err"),
+            )
+        )
     return rows
 
 

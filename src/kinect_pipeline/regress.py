@@ -85,25 +85,29 @@ def compare(case: Case, got: dict[str, np.ndarray], golden: dict[str, np.ndarray
             f, b = bad[np.argmax(diff[tuple(bad.T)])]
             problems.append(
                 f"{case.name}: {key}: {len(bad)} beam(s) moved beyond {tol:g}; worst frame {f} beam {b} "
-                f"(angle {math.degrees(a0 + inc * b):+.2f} deg): {w[f, b]:.4f} -> {g[f, b]:.4f}")
+                f"(angle {math.degrees(a0 + inc * b):+.2f} deg): {w[f, b]:.4f} -> {g[f, b]:.4f}"
+            )
     changed = got["labels"] != golden["labels"]
     frac = float(changed.mean())
     if frac > TOLERANCES["labels_changed"]:
         f = int(np.argmax(changed.reshape(len(changed), -1).sum(1)))
         rows, cols = np.nonzero(changed[f])
-        moves = {}
-        for r, c in zip(rows, cols):
+        moves: dict[tuple[int, int], int] = {}
+        for r, c in zip(rows, cols, strict=False):
             key2 = (int(golden["labels"][f, r, c]), int(got["labels"][f, r, c]))
             moves[key2] = moves.get(key2, 0) + 1
         top = ", ".join(f"{a}->{b}: {n}" for (a, b), n in sorted(moves.items(), key=lambda kv: -kv[1])[:4])
-        problems.append(f"{case.name}: labels: {100 * frac:.3f} % of pixels changed (tolerance "
-                        f"{100 * TOLERANCES['labels_changed']:.3f} %); most in frame {f}, rows {rows.min()}..{rows.max()}, "
-                        f"cols {cols.min()}..{cols.max()}; label moves {top}")
+        problems.append(
+            f"{case.name}: labels: {100 * frac:.3f} % of pixels changed (tolerance "
+            f"{100 * TOLERANCES['labels_changed']:.3f} %); most in frame {f}, rows {rows.min()}..{rows.max()}, "
+            f"cols {cols.min()}..{cols.max()}; label moves {top}"
+        )
     return problems
 
 
-def regress(update: bool = False, config_override: dict[str, Any] | None = None,
-            directory: Path = GOLDEN_DIR) -> tuple[list[str], list[str]]:
+def regress(
+    update: bool = False, config_override: dict[str, Any] | None = None, directory: Path = GOLDEN_DIR
+) -> tuple[list[str], list[str]]:
     """Returns (report lines, problems)."""
     lines, problems = [], []
     for case in CASES:

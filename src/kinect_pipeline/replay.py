@@ -8,9 +8,10 @@ import math
 import os
 import time
 from collections import defaultdict
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
 
@@ -66,8 +67,10 @@ class TfBuffer:
         for t in msg.transforms:
             child = t.child_frame_id.lstrip("/")
             self.parent[child] = t.header.frame_id.lstrip("/")
-            tf: Tf = ((t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w),
-                      (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z))
+            tf: Tf = (
+                (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z, t.transform.rotation.w),
+                (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z),
+            )
             if static:
                 self.static[child] = tf
             else:
@@ -149,15 +152,18 @@ def _pick_topics(connections: list[Any], opts: ReplayOptions) -> tuple[str, str]
     if depth is None:
         cands = [t for t in images if "depth" in t and not t.endswith("/processed")]
         if len(cands) != 1:
-            raise ReplayError(f"cannot tell the depth topic among the Image topics {images or '(none)'}: "
-                              "name it with --depth-topic")
+            raise ReplayError(
+                f"cannot tell the depth topic among the Image topics {images or '(none)'}: name it with --depth-topic"
+            )
         depth = cands[0]
     elif depth not in images:
         raise ReplayError(f"--depth-topic {depth}: not an Image topic of the bag (Image topics: {images or 'none'})")
     info = opts.info_topic or depth.rsplit("/", 1)[0] + "/camera_info"
     if info not in infos:
-        raise ReplayError(f"camera_info topic {info} not in the bag (CameraInfo topics: {sorted(infos) or 'none'}): "
-                          "name it with --info-topic")
+        raise ReplayError(
+            f"camera_info topic {info} not in the bag (CameraInfo topics: {sorted(infos) or 'none'}): "
+            "name it with --info-topic"
+        )
     return depth, info
 
 
@@ -192,8 +198,9 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
         frames_total = sum(c.msgcount for c in reader.connections if c.topic == depth_topic)
         tf = TfBuffer()
         # tf first (a frame may come before the transform at its stamp): read all of it.
-        for conn, _, raw in _messages(reader, [c for c in reader.connections if c.topic in ("/tf", "/tf_static")],
-                                      opts, report):
+        for conn, _, raw in _messages(
+            reader, [c for c in reader.connections if c.topic in ("/tf", "/tf_static")], opts, report
+        ):
             tf.add(ts.deserialize_ros1(raw, conn.msgtype), static=conn.topic == "/tf_static")
         config = _core.Config(**opts.config)
         pipe: _core.Pipeline | None = None
@@ -202,9 +209,14 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
         with Writer(tmp) as w:
             outs: dict[int, Any] = {}
             for c in reader.connections:
-                outs[c.id] = w.add_connection(c.topic, c.msgtype, msgdef=c.msgdef.data, md5sum=c.digest,
-                                              callerid=getattr(c.ext, "callerid", None),
-                                              latching=getattr(c.ext, "latching", None))
+                outs[c.id] = w.add_connection(
+                    c.topic,
+                    c.msgtype,
+                    msgdef=c.msgdef.data,
+                    md5sum=c.digest,
+                    callerid=getattr(c.ext, "callerid", None),
+                    latching=getattr(c.ext, "latching", None),
+                )
             c_scan = w.add_connection(scan_topic, "sensor_msgs/msg/LaserScan", typestore=ts)
             c_clean = w.add_connection(cleaned_topic, "sensor_msgs/msg/Image", typestore=ts)
             it: Iterator[Any] = _messages(reader, list(reader.connections), opts, report)
@@ -227,8 +239,14 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
                 if info is None:
                     report.problems.append(f"{depth_topic} at {stamp:.3f} s: no camera_info yet; frame skipped")
                     continue
-                cam = _core.Camera(int(info.width), int(info.height), float(info.K[0]), float(info.K[4]),
-                                   float(info.K[2]), float(info.K[5]))
+                cam = _core.Camera(
+                    int(info.width),
+                    int(info.height),
+                    float(info.K[0]),
+                    float(info.K[4]),
+                    float(info.K[2]),
+                    float(info.K[5]),
+                )
                 if pipe is None or repr(cam) != repr(camera):
                     pipe, camera = _core.Pipeline(cam, config), cam
                 try:
@@ -301,25 +319,43 @@ def _last_time(report: ReplayReport) -> float:
     return float(report.__dict__.get("_last_ns", 0)) * 1e-9
 
 
-def _write_outputs(w: Any, ts: Any, T: Any, c_scan: Any, c_clean: Any, t_ns: int, img: Any, res: Any, frame: str) -> None:
+def _write_outputs(
+    w: Any, ts: Any, T: Any, c_scan: Any, c_clean: Any, t_ns: int, img: Any, res: Any, frame: str
+) -> None:
     Header = T["std_msgs/msg/Header"]
     header = Header(seq=img.header.seq, stamp=img.header.stamp, frame_id=frame)
     scan = T["sensor_msgs/msg/LaserScan"](
-        header=header, angle_min=float(res.angle_min), angle_max=float(res.angle_max),
-        angle_increment=float(res.angle_increment), time_increment=0.0, scan_time=0.0,
-        range_min=float(res.range_min), range_max=float(res.range_max), ranges=res.ranges, intensities=res.intensities)
+        header=header,
+        angle_min=float(res.angle_min),
+        angle_max=float(res.angle_max),
+        angle_increment=float(res.angle_increment),
+        time_increment=0.0,
+        scan_time=0.0,
+        range_min=float(res.range_min),
+        range_max=float(res.range_max),
+        ranges=res.ranges,
+        intensities=res.intensities,
+    )
     w.write(c_scan, t_ns, ts.serialize_ros1(scan, "sensor_msgs/msg/LaserScan"))
     depth = np.ascontiguousarray(res.depth)
     clean = T["sensor_msgs/msg/Image"](
-        header=img.header, height=depth.shape[0], width=depth.shape[1], encoding=img.encoding,
-        is_bigendian=0, step=depth.strides[0], data=depth.view(np.uint8).reshape(-1))
+        header=img.header,
+        height=depth.shape[0],
+        width=depth.shape[1],
+        encoding=img.encoding,
+        is_bigendian=0,
+        step=depth.strides[0],
+        data=depth.view(np.uint8).reshape(-1),
+    )
     w.write(c_clean, t_ns, ts.serialize_ros1(clean, "sensor_msgs/msg/Image"))
 
 
 def format_report(r: ReplayReport) -> str:
     rate = r.processed / r.seconds if r.seconds > 0 else math.nan
-    lines = [f"{r.processed} of {r.frames} frames of {r.depth_topic} -> {r.scan_topic} in {r.seconds:.1f} s "
-             f"({rate:.1f} frames/s); pose from tf {r.pose_from_tf}, fallback {r.pose_fallback}, "
-             f"skipped without pose {r.skipped_no_pose}, damaged {r.bad_messages}"]
+    lines = [
+        f"{r.processed} of {r.frames} frames of {r.depth_topic} -> {r.scan_topic} in {r.seconds:.1f} s "
+        f"({rate:.1f} frames/s); pose from tf {r.pose_from_tf}, fallback {r.pose_fallback}, "
+        f"skipped without pose {r.skipped_no_pose}, damaged {r.bad_messages}"
+    ]
     lines += [f"  note: {p}" for p in r.problems[:20]]
     return "\n".join(lines)

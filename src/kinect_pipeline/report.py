@@ -65,8 +65,14 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
         tf_conns = [c for c in reader.connections if c.topic in ("/tf", "/tf_static")]
         for conn, _, raw in reader.messages(connections=tf_conns):
             tf.add(ts.deserialize_ros1(raw, conn.msgtype), static=conn.topic == "/tf_static")
-        lidar_topic = next((c.topic for c in reader.connections
-                            if c.msgtype == "sensor_msgs/msg/LaserScan" and "ground_truth" not in c.topic), None)
+        lidar_topic = next(
+            (
+                c.topic
+                for c in reader.connections
+                if c.msgtype == "sensor_msgs/msg/LaserScan" and "ground_truth" not in c.topic
+            ),
+            None,
+        )
         pending: dict[str, dict[float, Any]] = {"lidar": {}, "gt_scan": {}, "gt_labels": {}}
         # Side topics first: they may come after the frame they belong to.
         side = [c for c in reader.connections if c.topic in (lidar_topic, "/ground_truth/scan", "/ground_truth/labels")]
@@ -97,8 +103,14 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
                 continue
             if bar is not None:
                 next(bar, None)
-            cam = _core.Camera(int(info.width), int(info.height), float(info.K[0]), float(info.K[4]),
-                               float(info.K[2]), float(info.K[5]))
+            cam = _core.Camera(
+                int(info.width),
+                int(info.height),
+                float(info.K[0]),
+                float(info.K[4]),
+                float(info.K[2]),
+                float(info.K[5]),
+            )
             if pipe is None:
                 pipe = _core.Pipeline(cam, _core.Config(**config))
                 pipe_f = _core.Pipeline(cam, _core.Config(**{**config, "intensity_filter": True}))
@@ -108,7 +120,13 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
                 h, p, r, yaw = _core.pose_from_optical_transform((q, t), opts.base_frame_height)
                 xy = (t[0], t[1], yaw)
             except LookupError:
-                h, p, r, xy = pipe.config.sensor_height, pipe.config.sensor_pitch, pipe.config.sensor_roll, (0.0, 0.0, 0.0)
+                h, p, r, xy = (
+                    pipe.config.sensor_height,
+                    pipe.config.sensor_pitch,
+                    pipe.config.sensor_roll,
+                    (0.0, 0.0, 0.0),
+                )
+            assert pipe is not None and pipe_f is not None
             res = pipe.process_pose(depth, h, p, r)
             res_f = pipe_f.process_pose(depth, h, p, r)
             rec = FrameRecord(st, 0.0, (h, p, r), xy, res.ranges, res.intensities, res_f.ranges, res.times["total"])
@@ -124,7 +142,12 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
                 try:
                     lq, lt = tf.lookup(opts.base_frame, lid.header.frame_id, st, opts.tf_tolerance)
                     yaw_l = _core.roll_pitch_yaw(lq)[2]
-                    rec.lidar = (np.array(lid.ranges, np.float32), lid.angle_min, lid.angle_increment, (lt[0], lt[1], yaw_l))
+                    rec.lidar = (
+                        np.array(lid.ranges, np.float32),
+                        lid.angle_min,
+                        lid.angle_increment,
+                        (lt[0], lt[1], yaw_l),
+                    )
                 except LookupError:
                     pass
             out.frames.append(rec)
@@ -148,7 +171,9 @@ def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float,
     return np.stack([pose[0] + ranges[ok] * np.cos(a[ok]), pose[1] + ranges[ok] * np.sin(a[ok])], axis=1)
 
 
-def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, show_progress: bool = True) -> dict[str, Any]:
+def write_report(
+    bag: Path, out_dir: Path, opts: ReplayOptions | None = None, show_progress: bool = True
+) -> dict[str, Any]:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,8 +188,10 @@ def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, sh
 
     # 1. Raw, cleaned and labelled depth.
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.4))
-    for a, img, title in ((ax[0], to_metres(depth, max_depth), "raw depth"),
-                          (ax[1], to_metres(res.depth, max_depth), "cleaned depth")):
+    for a, img, title in (
+        (ax[0], to_metres(depth, max_depth), "raw depth"),
+        (ax[1], to_metres(res.depth, max_depth), "cleaned depth"),
+    ):
         im = a.imshow(img, cmap="viridis", vmin=0, vmax=min(max_depth, 8.0))
         a.set_title(title)
         a.axis("off")
@@ -218,7 +245,9 @@ def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, sh
     fig.colorbar(sc, ax=ax.tolist(), shrink=0.7, label="intensity (confidence)")
     _save_atomic(fig, out_dir / "confidence.png")
     plt.close(fig)
-    pictures.append(("confidence.png", "All scans of the bag, coloured by confidence, before and after the filter (fig 4.21)"))
+    pictures.append(
+        ("confidence.png", "All scans of the bag, coloured by confidence, before and after the filter (fig 4.21)")
+    )
 
     # 4. Timing.
     fig, ax = plt.subplots(figsize=(8, 3.5))
@@ -231,19 +260,24 @@ def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, sh
     pictures.append(("timing.png", "Per-frame processing time of the core"))
 
     summary: dict[str, Any] = {
-        "bag": str(bag), "frames": len(c.frames),
+        "bag": str(bag),
+        "frames": len(c.frames),
         "ms_per_frame_median": float(np.median([f.ms for f in c.frames])),
-        "pitch_deg_range": [math.degrees(min(f.pose[1] for f in c.frames)), math.degrees(max(f.pose[1] for f in c.frames))],
+        "pitch_deg_range": [
+            math.degrees(min(f.pose[1] for f in c.frames)),
+            math.degrees(max(f.pose[1] for f in c.frames)),
+        ],
     }
     with_gt = [f for f in c.frames if f.gt_scan is not None]
     if with_gt:
         phantom = missed = beams = 0
         for f in with_gt:
-            real = np.minimum(f.gt_scan, np.minimum(np.roll(f.gt_scan, 1), np.roll(f.gt_scan, -1)))
+            gt = np.asarray(f.gt_scan)
+            real = np.minimum(gt, np.minimum(np.roll(gt, 1), np.roll(gt, -1)))
             fin = np.isfinite(f.ranges)
             phantom += int((fin & (f.ranges < real - 0.05)).sum())
-            seen = np.isfinite(f.gt_scan)
-            missed += int((seen & (~fin | (f.ranges > f.gt_scan + 0.10))).sum())
+            seen = np.isfinite(gt)
+            missed += int((seen & (~fin | (f.ranges > gt + 0.10))).sum())
             beams += len(f.ranges)
         summary["phantom_beams"] = phantom / beams
         summary["missed_beams"] = missed / beams
@@ -252,10 +286,14 @@ def write_report(bag: Path, out_dir: Path, opts: ReplayOptions | None = None, sh
         tmp.write_text(json.dumps(summary, indent=1))
         os.replace(tmp, out_dir / "quality.json")
     rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
-    figs = "".join(f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
-                   for p, t in pictures)
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
-            f"<h1>kinect_pipeline report</h1><p>{html.escape(str(bag))}</p><table>{rows}</table>{figs}</body></html>")
+    figs = "".join(
+        f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
+        for p, t in pictures
+    )
+    page = (
+        f"<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
+        f"<h1>kinect_pipeline report</h1><p>{html.escape(str(bag))}</p><table>{rows}</table>{figs}</body></html>"
+    )
     tmp = out_dir / "index.html.tmp"
     tmp.write_text(page)
     os.replace(tmp, out_dir / "index.html")

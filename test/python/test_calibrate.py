@@ -27,8 +27,9 @@ def run_cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict, 
 
 @pytest.mark.parametrize("fmt", ["png16", "npy_float", "npy_uint8"])
 @pytest.mark.parametrize(("height", "pitch", "roll"), [(1.1, 0.26, 0.0), (0.6, 0.05, 0.03), (1.4, 0.45, -0.02)])
-def test_recovers_the_true_pose(tmp_path: Path, capsys: pytest.CaptureFixture[str], fmt: str, height: float,
-                                pitch: float, roll: float) -> None:
+def test_recovers_the_true_pose(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fmt: str, height: float, pitch: float, roll: float
+) -> None:
     enc = {"png16": "16UC1", "npy_float": "32FC1", "npy_uint8": "8UC1"}[fmt]
     f = render_frame(CAM, lab_scene(), height, pitch, roll, enc, seed=21)
     assert (f.truth["object"] == FLOOR).mean() >= 0.15
@@ -67,8 +68,9 @@ REAL_FRAMES = [
 
 
 @pytest.mark.parametrize(("name", "intr", "scale"), REAL_FRAMES)
-def test_real_frames_with_a_floor_give_a_plausible_pose(capsys: pytest.CaptureFixture[str], name: str,
-                                                         intr: tuple, scale: float) -> None:
+def test_real_frames_with_a_floor_give_a_plausible_pose(
+    capsys: pytest.CaptureFixture[str], name: str, intr: tuple, scale: float
+) -> None:
     path = REAL / name
     if not path.exists():
         pytest.skip(f"{path} not available")

@@ -30,9 +30,25 @@ def test_camera_from_fov_matches_the_thesis_numbers() -> None:
 def test_config_fields_are_the_ros_parameter_names() -> None:
     cfg = kp.Config(sensor_height=1.1, sensor_pitch=0.26, ceiling_height=2.0, max_depth=12.0)
     d = cfg.to_dict()
-    for name in ("sensor_height", "sensor_pitch", "sensor_roll", "ceiling_height", "max_depth", "geometry",
-                 "projection", "open_kernel_size", "open_kernel_shape", "threshold_curve", "range_min", "range_max",
-                 "scan_beams", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter"):
+    for name in (
+        "sensor_height",
+        "sensor_pitch",
+        "sensor_roll",
+        "ceiling_height",
+        "max_depth",
+        "geometry",
+        "projection",
+        "open_kernel_size",
+        "open_kernel_shape",
+        "threshold_curve",
+        "range_min",
+        "range_max",
+        "scan_beams",
+        "confidence_window",
+        "confidence_distance",
+        "min_intensity",
+        "intensity_filter",
+    ):
         assert name in d
     assert cfg.geometry == "exact" and cfg.projection == "horizontal"
     cfg.threshold_curve = "1:0.05, 3:0.1"
@@ -85,8 +101,9 @@ def test_noise_free_floor_with_boxes(cam: kp.Camera, geometry: str) -> None:
 def test_thesis_geometry_stays_reachable_and_differs_from_exact(cam: kp.Camera) -> None:
     frame = render_frame(cam, boxes_scene(), HEIGHT, TILT, 0.0, "8UC1", seed=None)
     a = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT)).process(frame.depth)
-    b = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, geometry="thesis",
-                                   projection="column")).process(frame.depth)
+    b = kp.Pipeline(
+        cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, geometry="thesis", projection="column")
+    ).process(frame.depth)
     assert (a.labels != b.labels).mean() > 0.01
 
 
@@ -194,8 +211,14 @@ def test_bad_config_is_refused_naming_the_field(kwargs: dict, exc: type, match: 
         kp.Config(**kwargs)
 
 
-@pytest.mark.parametrize(("args", "match"), [((0, 424, 365.0, 365.0, 1.0, 1.0), "width"), ((512, 424, 0.0, 365.0, 1.0, 1.0), "fx"),
-                                             ((512, 424, math.nan, 365.0, 1.0, 1.0), "fx")])
+@pytest.mark.parametrize(
+    ("args", "match"),
+    [
+        ((0, 424, 365.0, 365.0, 1.0, 1.0), "width"),
+        ((512, 424, 0.0, 365.0, 1.0, 1.0), "fx"),
+        ((512, 424, math.nan, 365.0, 1.0, 1.0), "fx"),
+    ],
+)
 def test_bad_camera_is_refused(args: tuple, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         kp.Camera(*args)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ def test_fit_recovers_the_sensor_noise_and_gives_a_valid_curve() -> None:
     cfg = kp.Config(threshold_curve=fit.text)  # the pipeline accepts it as it is
     assert len(cfg.threshold_curve) == len(fit.points)
     t = [p[1] for p in fit.points]
-    assert all(b >= a for a, b in zip(t, t[1:]))
+    assert all(b >= a for a, b in itertools.pairwise(t))
 
 
 def test_fit_works_with_obstacles_in_view() -> None:
@@ -44,7 +45,7 @@ def test_fit_works_with_obstacles_in_view() -> None:
 def test_a_lower_false_obstacle_rate_gives_a_wider_curve() -> None:
     a = curve_from_model(0.0015, 0.0019, 1e-2, 0.01)
     b = curve_from_model(0.0015, 0.0019, 1e-4, 0.01)
-    assert all(pb[1] > pa[1] for pa, pb in zip(a.points, b.points))
+    assert all(pb[1] > pa[1] for pa, pb in zip(a.points, b.points, strict=False))
 
 
 def test_cli_writes_yaml_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -56,8 +57,12 @@ def test_cli_writes_yaml_and_plot(tmp_path: Path, capsys: pytest.CaptureFixture[
         cv2.imwrite(str(p), np.round(m * 1000).astype(np.uint16))
         paths.append(str(p))
     intr = [str(v) for v in (CAM.fx, CAM.fy, CAM.cx, CAM.cy)]
-    assert main(["curve", *paths, "--intrinsics", *intr, "-o", str(tmp_path / "c.yaml"),
-                 "--plot", str(tmp_path / "c.png")]) == 0
+    assert (
+        main(
+            ["curve", *paths, "--intrinsics", *intr, "-o", str(tmp_path / "c.yaml"), "--plot", str(tmp_path / "c.png")]
+        )
+        == 0
+    )
     text = (tmp_path / "c.yaml").read_text()
     line = next(x for x in text.splitlines() if x.startswith("threshold_curve:"))
     kp.Config(threshold_curve=line.split('"')[1])

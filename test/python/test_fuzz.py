@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
-from hypothesis.extra import numpy as hnp  # noqa: E402
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
-import kinect_pipeline as kp  # noqa: E402
+import kinect_pipeline as kp
 
 EXAMPLES = int(os.environ.get("KP_FUZZ_EXAMPLES", "300"))
 fuzz = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
@@ -35,8 +35,14 @@ def frames(draw: st.DrawFn) -> tuple[np.ndarray, kp.Camera]:
         arr = arr[::-1]  # negative stride
     if draw(st.booleans()) and w > 1:
         arr = arr[:, ::2]  # column step
-    cam = kp.Camera(arr.shape[1] if draw(st.booleans()) else draw(st.integers(1, 24)), arr.shape[0],
-                    draw(st.floats(1, 1000)), draw(st.floats(1, 1000)), draw(st.floats(-50, 50)), draw(st.floats(-50, 50)))
+    cam = kp.Camera(
+        arr.shape[1] if draw(st.booleans()) else draw(st.integers(1, 24)),
+        arr.shape[0],
+        draw(st.floats(1, 1000)),
+        draw(st.floats(1, 1000)),
+        draw(st.floats(-50, 50)),
+        draw(st.floats(-50, 50)),
+    )
     return arr, cam
 
 
@@ -71,8 +77,9 @@ def configs(draw: st.DrawFn) -> dict[str, object]:
 
 @fuzz
 @given(frames(), configs(), anyfloat, anyfloat)
-def test_process_never_crashes(frame: tuple[np.ndarray, kp.Camera], cfg: dict[str, object], pitch: float,
-                               roll: float) -> None:
+def test_process_never_crashes(
+    frame: tuple[np.ndarray, kp.Camera], cfg: dict[str, object], pitch: float, roll: float
+) -> None:
     arr, cam = frame
     try:
         pipe = kp.Pipeline(cam, kp.Config(**cfg))

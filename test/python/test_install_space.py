@@ -17,11 +17,18 @@ INSTALL = ROOT / "build" / "install"
 def install_env() -> dict[str, str]:
     if not (BUILD / "Makefile").exists():
         pytest.skip("no build/cmake: run scripts/quickstart.sh first")
-    subprocess.run(["cmake", "--build", str(BUILD), "--target", "install"], check=True, capture_output=True, timeout=600)
+    subprocess.run(
+        ["cmake", "--build", str(BUILD), "--target", "install"], check=True, capture_output=True, timeout=600
+    )
     # A clean environment: only the install space, none of devel or the source tree.
     clean = {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/root"), "ROS_HOME": "/tmp"}
-    out = subprocess.run(["bash", "-c", f"set +u; . {INSTALL}/setup.sh && env -0"], env=clean, check=True,
-                         capture_output=True, timeout=60).stdout
+    out = subprocess.run(
+        ["bash", "-c", f"set +u; . {INSTALL}/setup.sh && env -0"],
+        env=clean,
+        check=True,
+        capture_output=True,
+        timeout=60,
+    ).stdout
     env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
     assert str(ROOT / "build" / "devel") not in env.get("PYTHONPATH", "")
     return env
@@ -32,7 +39,9 @@ def run(env: dict[str, str], *cmd: str) -> str:
 
 
 def test_python_module_and_tools_come_from_the_install_space(install_env: dict[str, str]) -> None:
-    where = run(install_env, "python3", "-c", "import kinect_pipeline._core as c, kinect_pipeline.demo; print(c.__file__)")
+    where = run(
+        install_env, "python3", "-c", "import kinect_pipeline._core as c, kinect_pipeline.demo; print(c.__file__)"
+    )
     assert where.startswith(str(INSTALL)), where
     assert "usage: kinect-pipeline" in run(install_env, str(INSTALL / "lib/kinect_pipeline/kinect-pipeline"), "--help")
 
@@ -40,8 +49,14 @@ def test_python_module_and_tools_come_from_the_install_space(install_env: dict[s
 def test_package_launch_files_and_nodelet_are_found(install_env: dict[str, str]) -> None:
     share = run(install_env, "rospack", "find", "kinect_pipeline").strip()
     assert share == str(INSTALL / "share" / "kinect_pipeline")
-    for f in ("launch/kinect_pipeline.launch", "launch/replay.launch", "launch/rviz.launch", "rviz/kinect_pipeline.rviz",
-              "cfg/KinectPipeline.cfg", "nodelet_plugins.xml"):
+    for f in (
+        "launch/kinect_pipeline.launch",
+        "launch/replay.launch",
+        "launch/rviz.launch",
+        "rviz/kinect_pipeline.rviz",
+        "cfg/KinectPipeline.cfg",
+        "nodelet_plugins.xml",
+    ):
         assert (Path(share) / f).exists(), f
     plugins = run(install_env, "rospack", "plugins", "--attrib=plugin", "nodelet")
     assert f"kinect_pipeline {share}/nodelet_plugins.xml" in plugins

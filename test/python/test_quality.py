@@ -22,8 +22,9 @@ CONDITIONS = [
 
 @pytest.mark.parametrize("encoding", ["8UC1", "16UC1", "32FC1"])
 @pytest.mark.parametrize(("height", "tilt", "base_pitch", "base_roll"), CONDITIONS)
-def test_default_quality_on_noisy_frames(encoding: str, height: float, tilt: float, base_pitch: float,
-                                         base_roll: float) -> None:
+def test_default_quality_on_noisy_frames(
+    encoding: str, height: float, tilt: float, base_pitch: float, base_roll: float
+) -> None:
     cam = kp.kinect_v2_camera()
     pipe = kp.Pipeline(cam, kp.Config(sensor_height=height, sensor_pitch=tilt))
     seed = int(1000 * (height + tilt + base_pitch + base_roll)) % 9973

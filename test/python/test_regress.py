@@ -6,8 +6,8 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from kinect_pipeline.cli import main  # noqa: E402
-from kinect_pipeline.regress import CASES, GOLDEN_DIR  # noqa: E402
+from kinect_pipeline.cli import main
+from kinect_pipeline.regress import CASES, GOLDEN_DIR
 
 
 def test_golden_files_are_small_and_present() -> None:

@@ -12,11 +12,11 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-import kinect_pipeline as kp  # noqa: E402
-from kinect_pipeline.bag import Rig, write_sequence_bag  # noqa: E402
-from kinect_pipeline.cli import main  # noqa: E402
-from kinect_pipeline.demo import SegwayMotion  # noqa: E402
-from kinect_pipeline.replay import ReplayError, ReplayOptions, replay  # noqa: E402
+import kinect_pipeline as kp
+from kinect_pipeline.bag import Rig, write_sequence_bag
+from kinect_pipeline.cli import main
+from kinect_pipeline.demo import SegwayMotion
+from kinect_pipeline.replay import ReplayError, ReplayOptions, replay
 
 FRAMES = 12
 
@@ -53,12 +53,14 @@ def test_replay_writes_a_scan_per_frame_equal_to_the_core_at_the_tf_pose(bag: Pa
     cleaned = read(out, "/kinect2/sd/image_depth/processed")
     assert len(images) == len(scans) == len(cleaned) == FRAMES
     rig, motion, cam = Rig(), SegwayMotion(), kp.kinect_v2_camera()
-    for img, scan, clean in zip(images, scans, cleaned):
+    for img, scan, clean in zip(images, scans, cleaned, strict=False):
         assert (scan.header.stamp.sec, scan.header.stamp.nanosec) == (img.header.stamp.sec, img.header.stamp.nanosec)
         _, _, pitch, height = rig.sensor_pose(motion.pitch(img.header.seq))
         depth = np.frombuffer(img.data, np.uint16).reshape(img.height, img.width)
         want = kp.Pipeline(cam, kp.Config(sensor_height=height, sensor_pitch=pitch)).process(depth)
-        same = np.isclose(scan.ranges, want.ranges, rtol=1e-4, atol=1e-5) | (np.isnan(scan.ranges) & np.isnan(want.ranges))
+        same = np.isclose(scan.ranges, want.ranges, rtol=1e-4, atol=1e-5) | (
+            np.isnan(scan.ranges) & np.isnan(want.ranges)
+        )
         assert same.mean() >= 0.995
         got_clean = np.frombuffer(clean.data, np.uint16).reshape(clean.height, clean.width)
         assert (got_clean == want.depth).mean() >= 0.999
@@ -70,7 +72,9 @@ def test_rosbag_tools_read_both_bags(bag: Path, tmp_path: Path) -> None:
     if shutil.which("rosbag") is None:
         pytest.skip("rosbag (Debian python3-rosbag) not installed")
     for path, topic in ((bag, "/kinect2/sd/image_depth"), (out, "/kinect2/scan")):
-        info = subprocess.run(["rosbag", "info", str(path)], capture_output=True, text=True, check=True, timeout=60).stdout
+        info = subprocess.run(
+            ["rosbag", "info", str(path)], capture_output=True, text=True, check=True, timeout=60
+        ).stdout
         assert topic in info and f"{FRAMES} msgs" in info
 
 
@@ -105,9 +109,9 @@ def test_damaged_bytes_name_where_and_skip_bad_goes_on(bag: Path, tmp_path: Path
     bad = tmp_path / "bad.bag"
     data = bytearray(bag.read_bytes())
     mid = len(data) // 2
-    data[mid:mid + 4000] = b"\xff" * 4000
+    data[mid : mid + 4000] = b"\xff" * 4000
     bad.write_bytes(bytes(data))
-    with pytest.raises(ReplayError, match="damaged|not a readable"):
+    with pytest.raises(ReplayError, match=r"damaged|not a readable"):
         replay(bad, tmp_path / "b.bag", show_progress=False)
     try:
         report = replay(bad, tmp_path / "c.bag", ReplayOptions(skip_bad=True), show_progress=False)

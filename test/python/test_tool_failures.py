@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from kinect_pipeline.bag import write_sequence_bag  # noqa: E402
+from kinect_pipeline.bag import write_sequence_bag
 
 
 @pytest.fixture(scope="module")
@@ -29,8 +29,13 @@ def cli(*args: str, fsize: int | None = None) -> subprocess.CompletedProcess[str
             signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead
             resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
 
-    return subprocess.run([sys.executable, "-m", "kinect_pipeline.cli", *args], capture_output=True, text=True,
-                          timeout=300, preexec_fn=limit)
+    return subprocess.run(
+        [sys.executable, "-m", "kinect_pipeline.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        preexec_fn=limit,
+    )
 
 
 @pytest.mark.parametrize("content", [b"", b"#ROSBAG V2.0\n", b"not a bag at all" * 100])
