@@ -54,9 +54,14 @@ install_venv() {
 
 build() {
   log "build: catkin package in build/ (devel space build/devel)"
-  if [ ! -f build/cmake/Makefile ]; then
+  # The install space must lie outside the package: roslaunch searches the whole package folder for launch files
+  # and would find two of each.
+  local install_prefix
+  install_prefix="/tmp/kinect_pipeline_install-$(printf '%s' "$ROOT" | sha1sum | cut -c1-8)"
+  if [ ! -f build/cmake/Makefile ] || ! grep -q "^CMAKE_INSTALL_PREFIX:PATH=$install_prefix\$" build/cmake/CMakeCache.txt; then
+    rm -rf build/install
     cmake -S . -B build/cmake -DCMAKE_BUILD_TYPE=Release -DCATKIN_DEVEL_PREFIX="$ROOT/build/devel" \
-      -DCMAKE_INSTALL_PREFIX="$ROOT/build/install" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
+      -DCMAKE_INSTALL_PREFIX="$install_prefix" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
       -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON >build/cmake.log 2>&1 ||
       { mkdir -p build; cat build/cmake.log; exit 1; }
   fi

@@ -27,6 +27,8 @@ class Measurement:
     received: int
     latencies_ms: np.ndarray
     cpu_percent: float
+    rss_start_mb: float = float("nan")
+    rss_end_mb: float = float("nan")
 
     def row(self, relay: Measurement | None) -> str:
         med, p99 = np.median(self.latencies_ms), np.percentile(self.latencies_ms, 99)
@@ -58,6 +60,18 @@ def _cpu_seconds(pids: list[int]) -> float:
     return total
 
 
+def _rss_mb(pids: list[int]) -> float:
+    total = 0
+    for pid in pids:
+        try:
+            for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total += int(line.split()[1])
+        except OSError:
+            pass
+    return total / 1024.0
+
+
 def _descendants(pid: int) -> list[int]:
     out = [pid]
     for p in Path("/proc").glob("[0-9]*"):
@@ -79,7 +93,7 @@ def _stop(proc: subprocess.Popen[Any]) -> None:
             proc.wait(timeout=5)
 
 
-def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measurement]:
+def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | None = None) -> list[Measurement]:
     """Runs relay, node and nodelet one after the other with the same frames and returns their numbers.
     ``threads`` is the pipeline's num_threads (0: OpenMP's default)."""
     port = _free_port()
@@ -157,6 +171,8 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
             ),
         ]
         for name, cmd, topic, msg_type in subjects:
+            if only is not None and only not in name:
+                continue
             lat: list[float] = []
             lock = threading.Lock()
 
@@ -187,6 +203,7 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
                 with lock:
                     lat.clear()
                 cpu0, t0 = _cpu_seconds(pids), time.monotonic()
+                rss0 = _rss_mb(pids)
                 next_t = time.monotonic()
                 for _ in range(frames):
                     stamp = rospy.get_rostime()
@@ -202,8 +219,9 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0) -> list[Measure
                             break
                     time.sleep(0.01)
                 cpu = (_cpu_seconds(pids) - cpu0) / (time.monotonic() - t0) * 100.0
+                rss1 = _rss_mb(pids)
                 with lock:
-                    results.append(Measurement(name, frames, len(lat), np.array(lat), cpu))
+                    results.append(Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1))
             finally:
                 sub.unregister()
                 _stop(proc)
@@ -220,4 +238,18 @@ def report(results: list[Measurement]) -> str:
         "|---|---|---|---|---|---|---|---|",
     ]
     lines += [r.row(relay) for r in results]
+    return "\n".join(lines)
+
+
+def soak_report(results: list[Measurement]) -> str:
+    lines = [
+        "| subject | frames in | out | dropped | latency p50 [ms] | p99 [ms] | RSS start [MB] | RSS end [MB] |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        lines.append(
+            f"| {r.name} | {r.sent} | {r.received} | {r.sent - r.received} | "
+            f"{np.median(r.latencies_ms):.3f} | {np.percentile(r.latencies_ms, 99):.3f} | "
+            f"{r.rss_start_mb:.1f} | {r.rss_end_mb:.1f} |"
+        )
     return "\n".join(lines)

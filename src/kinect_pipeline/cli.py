@@ -213,6 +213,16 @@ def cmd_quality(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_soak(args: argparse.Namespace) -> int:
+    from .bench_ros import run, soak_report
+
+    frames = int(args.minutes * 60 * args.rate)
+    results = run(frames=frames, rate=args.rate, threads=args.threads, only=args.subject)
+    print(f"soak: {args.minutes:g} min at {args.rate:g} Hz, 512x424 16UC1, num_threads {args.threads}:")
+    print(soak_report(results))
+    return 0 if all(r.sent == r.received for r in results) else 1
+
+
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Quality of the default configuration on noisy rendered frames at a known pose."""
     import numpy as np
@@ -356,6 +366,13 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     q.add_argument("--quiet", action="store_true")
     q.set_defaults(func=cmd_quality)
+
+    so = sub.add_parser("soak", help="long run through a real roscore: drops, latency, memory at start and end")
+    so.add_argument("--minutes", type=float, default=10.0)
+    so.add_argument("--rate", type=float, default=30.0)
+    so.add_argument("--threads", type=int, default=0)
+    so.add_argument("--subject", choices=["node", "nodelet"], default="nodelet")
+    so.set_defaults(func=cmd_soak)
 
     e = sub.add_parser("evaluate", help="quality of the default config on noisy rendered frames (table)")
     e.add_argument("--frames", type=int, default=8)

@@ -10,7 +10,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 BUILD = ROOT / "build" / "cmake"
-INSTALL = ROOT / "build" / "install"
+
+
+def _install_prefix() -> Path:
+    for line in (BUILD / "CMakeCache.txt").read_text().splitlines():
+        if line.startswith("CMAKE_INSTALL_PREFIX:"):
+            return Path(line.split("=", 1)[1])
+    raise AssertionError("no CMAKE_INSTALL_PREFIX in the CMake cache")
+
+
+INSTALL = _install_prefix() if (BUILD / "CMakeCache.txt").exists() else ROOT / "build" / "install"
 
 
 @pytest.fixture(scope="module")
@@ -31,6 +40,7 @@ def install_env() -> dict[str, str]:
     ).stdout
     env = dict(item.split("=", 1) for item in out.decode().split("\0") if "=" in item)
     assert str(ROOT / "build" / "devel") not in env.get("PYTHONPATH", "")
+    assert not INSTALL.is_relative_to(ROOT), "an install space inside the package confuses roslaunch"
     return env
 
 
