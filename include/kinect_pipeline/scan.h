@@ -95,6 +95,13 @@ public:
   void coverage(float& lo, float& hi) const;
 
 private:
+  friend class Pipeline;  ///< bins only the kept part of each row, and tracks bins from row to row
+
+  /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
+  void edgeBins(int r, int e0, int e1, float* out) const;
+  /** @brief range[u] = depth[u] * rangeFactor(u, r) for u in [u0, u1] only (+Inf depth stays +Inf). */
+  void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
+
   Projection projection_ = Projection::kHorizontal;
   int width_ = 0, height_ = 0, beams_ = 0;
   float angle_min_ = 0.0f, angle_max_ = 0.0f, inc_ = 1.0f, lo_ = 0.0f;
@@ -103,6 +110,11 @@ private:
   std::vector<float> col_edge_bins_, col_factor_;  // column projection
   float ax_ = 0.0f, ay_ = 0.0f;
   std::vector<float> bx_, by_;                    // horizontal projection, per row
+  double cy_ = 0.0, fy_ = 1.0;                        ///< row r has yn = (r - cy) / fy
+  double sp_ = 0.0, cp_ = 1.0, sr_ = 0.0, cr_ = 1.0;  ///< sin, cos of the pose's pitch and roll
+  /// Direction (cos, sin) of bin boundary j = 0..beams: angle lo + j / inv with the float inv = 1 / inc of the
+  /// bin positions, where their exact value is j.
+  std::vector<double> bound_cos_, bound_sin_;
 };
 
 /**

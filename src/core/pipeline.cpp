@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -60,14 +61,13 @@ struct RowCounts
 };
 
 /**
- * Plane removal of one row: labels, cleaned depth and the depth of kept pixels (+Inf for the others).
+ * Plane removal of one row: labels and cleaned depth.
  * Branch-free, with restrict pointers, so that the compiler vectorises it.
  * @param rise_row the row's term of the rise per metre of depth (col[u] + rise_row < 0: the ray goes down)
  */
 template <typename T>
 RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const float* __restrict col, float rise_row,
-                      float scale, float floor_h, float ceil_h, int w, std::uint8_t* __restrict lab, T* __restrict dst,
-                      float* __restrict z)
+                      float scale, float floor_h, float ceil_h, int w, std::uint8_t* __restrict lab, T* __restrict dst)
 {
   using Tr = DepthTraits<T>;
   const T removed = Tr::removed();
@@ -89,13 +89,297 @@ RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const 
     const bool keep = !(inv | ceil | below | floor);
     lab[u] = static_cast<std::uint8_t>(inv * kInvalid + ceil * kAboveCeiling + below * kBelowFloor + floor * kFloor);
     dst[u] = keep ? v : removed;
-    z[u] = keep ? d : kInf;
     n_kept += keep;
     n_invalid += inv;
     n_floor += floor;
     n_ceiling += ceil;
   }
   return {n_kept, n_invalid, n_floor, n_ceiling};
+}
+
+template <typename T>
+void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
+{
+  // A gather, which SSE cannot vectorise: kept out of classifyRow.
+  for (int u = 0; u < w; ++u)
+  {
+    if constexpr (std::is_same_v<T, std::uint8_t>)
+      t[u] = lut.forValue(src[u]);
+    else
+      t[u] = lut.forDepth(static_cast<float>(src[u]) * scale);
+  }
+}
+
+/**
+ * An 8-bit row whose pixels all have the same rise (no roll) has labels that depend on the value alone. Where they
+ * are monotone in the value (kept, floor, below floor; or kept, above ceiling), two byte compares per pixel
+ * classify the row: value v < 255 is kept below t1, labelled l1 from t1 and l1 + l2 from t2 (255: no such value).
+ */
+struct ValueSplit
+{
+  int t1 = 255, t2 = 255;
+  std::uint8_t l1 = 0, l2 = 0;
+};
+
+// Smallest and largest value other than 255 of an 8-bit row (lo > hi if there is none).
+void valueRange(const std::uint8_t* __restrict src, int w, int& lo, int& hi)
+{
+  std::uint8_t mn = 255, mx = 0;
+  for (int u = 0; u < w; ++u)
+  {
+    mn = std::min(mn, src[u]);
+    mx = std::max(mx, static_cast<std::uint8_t>(src[u] + 1));  // 255 wraps to 0
+  }
+  lo = mn;
+  hi = mx - 1;
+}
+
+/**
+ * When the labels of a row's values are provably monotone in the value, so that value thresholds found by a
+ * search give every value's label. With rise R (the same for the whole row), d = fl(v scale), t = table[v]:
+ * - above ceiling, fl(d R) > ceil_h: fl(d R) is monotone in v, so is the test.
+ * - floor or below (R < 0), fl(fl(d R) + floor_h) < -fl(t R): the left side does not grow with v, the right side
+ *   does not shrink (t does not decrease), so once true it stays true.
+ * - below (R < 0), fl(fl(d R) + floor_h) < fl(t R): differs from G = floor_h + (d - t) R by at most
+ *   eta = u (2.01 |d R| + floor_h + |t R|); if d - t grows by at least gap_min from one value to the next,
+ *   G falls by gap_min |R| and the test is monotone when gap_min |R| >= 2 eta; and it is never true when
+ *   floor_h - d_max |R| > eta.
+ */
+struct ValueProof
+{
+  bool ok = false;  // table non-decreasing, ceil_h >= 0, floor_h > 0
+  double gap_min = 0.0, d_max = 0.0, t_max = 0.0, floor_h = 0.0;
+
+  void build(const float* table, float scale, float floor_h_, float ceil_h)
+  {
+    ok = ceil_h >= 0.0f && floor_h_ > 0.0f;
+    gap_min = std::numeric_limits<double>::infinity();
+    floor_h = floor_h_;
+    for (int v = 0; v < 254; ++v)
+    {
+      ok = ok && table[v + 1] >= table[v];
+      const double d0 = static_cast<float>(v) * scale, d1 = static_cast<float>(v + 1) * scale;
+      gap_min = std::min(gap_min, (d1 - table[v + 1]) - (d0 - table[v]));
+    }
+    d_max = static_cast<float>(254) * scale;
+    t_max = table[254];
+  }
+  bool monotone(float rise) const
+  {
+    if (!ok)
+      return false;
+    if (!(rise < 0.0f))
+      return true;  // kept, then above ceiling
+    const double r = -static_cast<double>(rise), u = 1.0 / 16777216.0;
+    const double eta = 1.01 * u * (2.01 * d_max * r + floor_h + t_max * r);
+    return gap_min * r >= 2.0 * eta || floor_h - d_max * r > eta;
+  }
+};
+
+/** Labels single values with classifyRow itself, so that they are the per-pixel labels bit for bit. */
+struct ValueLabeler
+{
+  const std::uint8_t* values;  // 0, 1, ..., 255
+  const float *table, *colc;   // the 8-bit threshold table; 256 copies of the column term
+  float rise_row, scale, floor_h, ceil_h;
+
+  std::uint8_t operator()(int v) const
+  {
+    std::uint8_t lab, dst;
+    classifyRow<std::uint8_t>(values + v, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab, &dst);
+    return lab;
+  }
+};
+
+// First v in [lo, hi] with pred(v) (monotone: false, then true), or hi + 1; searched from a guess outwards.
+template <typename Pred>
+int firstTrue(const Pred& pred, int lo, int hi, int guess)
+{
+  guess = std::min(std::max(guess, lo), hi);
+  int a, b;  // pred false below a (or a == lo), true from b (or b == hi + 1); answer in [a, b]
+  if (guess <= hi && pred(guess))
+  {
+    b = guess;
+    int step = 1;
+    a = guess - 1;
+    while (a >= lo && pred(a))
+    {
+      b = a;
+      a -= step;
+      step *= 2;
+    }
+    a = std::max(a + 1, lo);
+  }
+  else
+  {
+    a = guess + 1;
+    int step = 1;
+    b = guess + 1;
+    while (b <= hi && !pred(b))
+    {
+      a = b + 1;
+      b += step;
+      step *= 2;
+    }
+    b = std::min(b, hi + 1);
+  }
+  while (a < b)  // pred false before a, true at b (or b == hi + 1)
+  {
+    const int m = a + (b - a) / 2;
+    if (pred(m))
+      b = m;
+    else
+      a = m + 1;
+  }
+  return b;
+}
+
+/**
+ * The value thresholds of a row with values lo..hi (< 255), searched near last row's (guess) if the labels are
+ * provably monotone, else from every value's label. @return false if they are not monotone at all.
+ */
+bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int hi, ValueSplit& guess,
+                 std::uint8_t* lab, std::uint8_t* dst, ValueSplit& out)
+{
+  out = ValueSplit();
+  if (lo > hi)
+    return true;
+  if (proof.monotone(label.rise_row))
+  {
+    const int t1 = firstTrue([&](int v) { return label(v) != kKept; }, lo, hi, guess.t1);
+    if (t1 <= hi)
+    {
+      out.t1 = t1;
+      out.l1 = label(t1);
+      guess.t1 = t1;
+      if (out.l1 == kFloor)
+      {
+        const int t2 = firstTrue([&](int v) { return label(v) == kBelowFloor; }, t1, hi, guess.t2);
+        if (t2 <= hi)
+        {
+          out.t2 = t2;
+          out.l2 = kBelowFloor - kFloor;
+          guess.t2 = t2;
+        }
+      }
+    }
+    return true;
+  }
+  const int n = hi - lo + 1;
+  classifyRow<std::uint8_t>(label.values + lo, label.table + lo, label.colc, label.rise_row, label.scale,
+                            label.floor_h, label.ceil_h, n, lab, dst);
+  int i = 0;
+  while (i < n && lab[i] == kKept)
+    ++i;
+  if (i == n)
+    return true;
+  out.t1 = lo + i;
+  out.l1 = lab[i];
+  while (i < n && lab[i] == out.l1)
+    ++i;
+  if (i == n)
+    return true;
+  const std::uint8_t l = lab[i];
+  if (l < out.l1)
+    return false;
+  out.t2 = lo + i;
+  out.l2 = static_cast<std::uint8_t>(l - out.l1);
+  while (i < n && lab[i] == l)
+    ++i;
+  return i == n;
+}
+
+// Labels, cleaned depth and counts of an 8-bit row from its value thresholds. Arithmetic on bytes only, with
+// byte counters per block of 240 pixels, so that it vectorises 16 pixels wide.
+RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
+                   std::uint8_t* __restrict dst)
+{
+  const std::uint8_t t1 = static_cast<std::uint8_t>(s.t1), t2 = static_cast<std::uint8_t>(s.t2), l1 = s.l1, l2 = s.l2;
+  // 255 is >= t1 and >= t2: its l1 + l2 becomes kInvalid.
+  const std::uint8_t fix = static_cast<std::uint8_t>(l1 + l2 - kInvalid);
+  int n1 = 0, n2 = 0, ni = 0;
+  for (int u0 = 0; u0 < w; u0 += 240)
+  {
+    const int u1 = std::min(w, u0 + 240);
+    std::uint8_t c1 = 0, c2 = 0, ci = 0;
+    for (int u = u0; u < u1; ++u)
+    {
+      const std::uint8_t v = src[u];
+      const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
+      lab[u] = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
+      dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
+      c1 += g1;
+      c2 += g2;
+      ci += inv;
+    }
+    n1 += c1;
+    n2 += c2;
+    ni += ci;
+  }
+  RowCounts c;
+  c.kept = w - n1;
+  c.invalid = ni;
+  // n1 - n2 pixels have label l1; the 255s count in n1 and n2 alike.
+  c.floor = s.l1 == kFloor ? n1 - n2 : 0;
+  c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
+  return c;
+}
+
+// First and last column labelled kept, 8 labels at a time (the row has a kept pixel).
+bool hasZeroByte(std::uint64_t x) { return ((x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull) != 0; }
+
+int firstKept(const std::uint8_t* lab, int w)
+{
+  int u = 0;
+  for (; u + 8 <= w; u += 8)
+  {
+    std::uint64_t x;
+    std::memcpy(&x, lab + u, 8);
+    if (hasZeroByte(x))
+      break;
+  }
+  while (lab[u] != kKept)
+    ++u;
+  return u;
+}
+
+int lastKept(const std::uint8_t* lab, int w)
+{
+  int u = w;
+  for (; u >= 8; u -= 8)
+  {
+    std::uint64_t x;
+    std::memcpy(&x, lab + u - 8, 8);
+    if (hasZeroByte(x))
+      break;
+  }
+  do
+    --u;
+  while (lab[u] != kKept);
+  return u;
+}
+
+// z[u] = depth of the kept pixel u of the cleaned row, +Inf for removed ones, for u in [u0, u1].
+template <typename T>
+void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
+{
+  const T removed = DepthTraits<T>::removed();
+  for (int u = u0; u <= u1; ++u)
+  {
+    const T v = dst[u];
+    bool gone;
+    if constexpr (std::is_floating_point_v<T>)
+      gone = v != v;  // NaN
+    else
+      gone = v == removed;
+    z[u] = gone ? kInf : static_cast<float>(v) * scale;
+  }
+}
+
+void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
+{
+  for (int u = u0; u <= u1; ++u)
+    m[u] = z[u] < m[u] ? z[u] : m[u];
 }
 
 /**
@@ -143,18 +427,454 @@ void binRow(const float* fb, const float* range, int w, int beams, float half_tu
   }
   flush();
 }
+
+// ---- Fast path of binRow for rows whose edge bins are monotone (nearly all of them) ----
+
+constexpr int kMaxRunSteps = 5;  // at most 2^5 edges in one bin, else binRow
+constexpr int kPad = 1 << kMaxRunSteps;  // scratch past the last edge that runMinStep reads
+
+struct Widths
+{
+  int neg = 0, pos = 0;
+  std::int32_t amin = 0x7fffffff, amax = 0;  // bits of the narrowest and widest |fb[u + 1] - fb[u]|
+};
+
+// Signs and extremes of the pixel widths in bins (float bits of non-negative floats order like the floats).
+Widths pixelWidths(const float* __restrict fb, int n)
+{
+  int neg = 0, pos = 0;
+  std::int32_t amin = 0x7fffffff, amax = 0;
+  for (int u = 0; u < n; ++u)
+  {
+    const float d = fb[u + 1] - fb[u];
+    neg += d < 0.0f;
+    pos += d > 0.0f;
+    std::int32_t bits;
+    std::memcpy(&bits, &d, 4);
+    bits &= 0x7fffffff;
+    amin = bits < amin ? bits : amin;
+    amax = bits > amax ? bits : amax;
+  }
+  return {neg, pos, amin, amax};
+}
+
+// key = floor(fb) clamped to [-1, beams] (the ends collect everything outside the scan), in key order.
+template <bool kReverse>
+void edgeKeys(const float* __restrict fb, int n, float beams, std::int32_t* __restrict key)
+{
+  for (int i = 0; i < n; ++i)
+  {
+    float f = fb[kReverse ? n - 1 - i : i];
+    f = f < -1.0f ? -1.0f : f;
+    f = f > beams ? beams : f;
+    const int k = static_cast<int>(f);
+    key[i] = k - (f < static_cast<float>(k));
+  }
+}
+
+// xs[i + 1] = range of pixel i in key order, +Inf for NaN (a removed pixel whose range factor is 0: binRow skips
+// it); the ends are +Inf.
+template <bool kReverse>
+void pixelRanges(const float* __restrict range, int n, float* __restrict xs)
+{
+  xs[0] = kInf;
+  for (int i = 0; i < n; ++i)
+  {
+    const float r = range[kReverse ? n - 1 - i : i];
+    xs[i + 1] = r < kInf ? r : kInf;
+  }
+  xs[n + 1] = kInf;
+}
+
+// v[i] = the nearer of the two pixels beside edge i.
+void edgeMin(const float* __restrict xs, int n_edges, float* __restrict v)
+{
+  for (int i = 0; i < n_edges; ++i)
+    v[i] = xs[i + 1] < xs[i] ? xs[i + 1] : xs[i];
+}
+
+// One doubling step of a segmented minimum: dst[i] = min of src over the edges i .. i + s with key[i].
+void runMinStep(const std::int32_t* __restrict key, const float* __restrict src, int n, int s, float* __restrict dst)
+{
+  for (int i = 0; i < n; ++i)
+  {
+    const float m = src[i + s] < src[i] ? src[i + s] : src[i];
+    dst[i] = key[i] == key[i + s] ? m : src[i];
+  }
+}
+
+/**
+ * Write-only scatter of a monotone row into rb (index key + 2). Bin key[i] is covered by the pixels beside the
+ * edges with that key, a bin strictly between key[i] and key[i + 1] by pixel i alone. Going down the keys,
+ * each pixel first writes its inner bins and each edge then its own bin, so the last write to a bin is the
+ * first edge of its run, which holds the run's minimum. No loads of rb: no store-to-load chains.
+ */
+void scatterRow(const std::int32_t* __restrict key, const float* __restrict x, const float* __restrict v, int n,
+                float* __restrict rb)
+{
+  int k_hi = key[n];
+  rb[k_hi + 2] = v[n];
+  for (int i = n - 1; i >= 0; --i)
+  {
+    const int k = key[i];
+    const float xi = x[i];
+    rb[k_hi + 1] = xi;  // bin k_hi - 1; a bin of pixel i only if k_hi - 1 > k, else rewritten below or unused
+    for (int j = k + 1; j < k_hi - 1; ++j)
+      rb[j + 2] = xi;
+    rb[k + 2] = v[i];
+    k_hi = k;
+  }
+}
+
+void mergeBins(const float* __restrict rb, int k0, int k1, float* __restrict bins)
+{
+  for (int k = k0; k <= k1; ++k)
+    bins[k] = rb[k + 2] < bins[k] ? rb[k + 2] : bins[k];
+}
+
+struct BinScratch
+{
+  std::int32_t* key;
+  float *xs, *v, *v2, *rb;
+};
+
+/**
+ * binRow for the pixels a..b of a row (fb[a..b + 1], range[a..b]) when their edge bins are monotone, no pixel
+ * spans more than half a turn and a bin holds at most 2^kMaxRunSteps edges; the same bins, branch-free.
+ * @return false, with nothing written, for other rows
+ */
+bool binRowMonotone(const float* fb, const float* range, int a, int b, int beams, float half_turn_bins,
+                    const BinScratch& s, float* bins)
+{
+  const int n = b - a + 1;
+  const Widths wd = pixelWidths(fb + a, n);
+  if (wd.neg > 0 && wd.pos > 0)
+    return false;
+  float amin, amax;
+  std::memcpy(&amin, &wd.amin, 4);
+  std::memcpy(&amax, &wd.amax, 4);
+  if (amax > half_turn_bins)
+    return false;
+  // A run of L edges in one bin spans L - 1 pixels and less than 1 bin: L <= 2^steps if amin >= 1 / 2^steps
+  // (with a margin for the rounding of the widths).
+  int steps = 0;
+  for (float need = 1.01f; amin < need; need *= 0.5f)
+    if (++steps > kMaxRunSteps)
+      return false;
+
+  const bool reverse = wd.pos == 0;
+  const float beams_f = static_cast<float>(beams);
+  if (reverse)
+  {
+    edgeKeys<true>(fb + a, n + 1, beams_f, s.key);
+    pixelRanges<true>(range + a, n, s.xs);
+  }
+  else
+  {
+    edgeKeys<false>(fb + a, n + 1, beams_f, s.key);
+    pixelRanges<false>(range + a, n, s.xs);
+  }
+  for (int i = n + 1; i <= n + kPad; ++i)
+    s.key[i] = std::numeric_limits<std::int32_t>::min();
+  float* v = s.v;
+  float* v2 = s.v2;
+  edgeMin(s.xs, n + 1, v);
+  for (int i = 0, step = 1; i < steps; ++i, step *= 2)
+  {
+    runMinStep(s.key, v, n + 1, step, v2);
+    std::swap(v, v2);
+  }
+  scatterRow(s.key, s.xs + 1, v, n, s.rb);
+  const int k0 = std::max(s.key[0], 0), k1 = std::min(s.key[n], beams - 1);
+  mergeBins(s.rb, k0, k1, bins);
+  return true;
+}
+
+// ---- Row-coherent binning of the horizontal projection ----
+//
+// Along a column edge the bin position changes slowly and monotonically from row to row (the edge's ray moves
+// along a straight line in the horizontal plane as the row changes), so each edge's bin (key) is known for a
+// whole block of rows from where it crosses the bin boundaries: in double precision, the rows where the true
+// bin position passes j - delta and j + delta (delta [bins] larger than the error of the float bin position)
+// decide the key, and where a row falls between the two, the float arithmetic of edgeBins does. Each column
+// keeps the nearest range of its kept pixels since its bins last changed and puts it into those bins only when
+// they change: per pixel a min, per key change a few bins.
+
+/** The horizontal projection's terms (the projector's, plus the pose in double). */
+struct ScanGeometry
+{
+  const float *xe, *xn, *bx, *by;
+  float ax, ay, lo, inv;
+  int beams;
+  double cy, fy, cp, sp_cr, sr;  // row r: y = (r - cy) / fy; edge ray (ax xe + cp - sp_cr y, ay xe + sr y)
+  const double *bc, *bs;         // direction of bin boundary j (where the true bin position is j)
+  double cd, sd, delta;          // cos, sin of the margin as an angle; the margin [bins]
+  // For boundary j + sgn * delta, arrays (k (2 (beams + 1)) + (sgn > 0) (beams + 1) + j) p, q, a, b (k = 0..3):
+  // the row where an edge ray at xe points along it is xe p + q where xe a + b > 0, else never.
+  const double* cross;
+  const double* table(int k, int sgn) const { return cross + (2 * k + (sgn > 0)) * (beams + 1); }
+
+  // Direction of boundary j + sgn * delta.
+  void direction(int j, int sgn, double& c, double& s) const
+  {
+    c = bc[j] * cd - sgn * bs[j] * sd;
+    s = bs[j] * cd + sgn * bc[j] * sd;
+  }
+  void crossing(int j, int sgn, double* out) const
+  {
+    double c, s;
+    direction(j, sgn, c, s);
+    const double den = c * sr + s * sp_cr;
+    double* const o = out + (sgn > 0) * (beams + 1) + j;
+    const std::size_t k = 2 * static_cast<std::size_t>(beams + 1);
+    if (den == 0.0)
+    {
+      o[0] = o[k] = o[2 * k] = 0.0;  // parallel to the ray's path: never crossed
+      o[3 * k] = -1.0;
+      return;
+    }
+    const double p = (s * ax - c * ay) / den, q = s * cp / den;
+    o[0] = fy * p;
+    o[k] = cy + fy * q;
+    o[2 * k] = ax - sp_cr * p;
+    o[3 * k] = cp - sp_cr * q;
+  }
+  // |ray| sin(ray angle - angle of boundary j + sgn * delta): > 0 beyond it (towards higher bins).
+  double side(int e, int r, int j, int sgn) const
+  {
+    double c, s;
+    direction(j, sgn, c, s);
+    const double x = xe[e], y = (r - cy) / fy;
+    return c * (ay * x + sr * y) - s * (ax * x + cp - sp_cr * y);
+  }
+  /**
+   * Row from which edge e is past boundary j + sgn * delta in its direction d of motion: the crossing row, or
+   * -Inf if it is past it in row r for good, +Inf if it never gets there (boundaries crossed only where the ray's
+   * x <= 0 never are, in rows with x > 0).
+   */
+  double rowPast(int e, int r, int j, int sgn, int d) const
+  {
+    const double x = xe[e];
+    if (x * table(2, sgn)[j] + table(3, sgn)[j] > 0.0)
+      return x * table(0, sgn)[j] + table(1, sgn)[j];
+    const double sd_ = side(e, r, j, sgn);
+    return (d > 0 ? sd_ > 0.0 : sd_ < 0.0) ? -std::numeric_limits<double>::infinity()
+                                           : std::numeric_limits<double>::infinity();
+  }
+  // The key of edge e in row r exactly as edgeBins + edgeKeys compute it.
+  int exactKey(int e, int r) const
+  {
+    const float f = (fastAtan2(ay * xe[e] + by[r], ax * xe[e] + bx[r]) - lo) * inv;
+    return clampKey(f);
+  }
+  int clampKey(double f) const
+  {
+    f = f < -1.0 ? -1.0 : (f > beams ? beams : f);
+    return static_cast<int>(std::floor(f));
+  }
+};
+
+/** A key change of an edge at a row: the new key, or kExactKey: compute it then. */
+struct KeyEvent
+{
+  std::uint16_t row, edge;  // coherent binning needs h, w + 1 <= 65536
+  std::int32_t key;
+};
+constexpr std::int32_t kExactKey = std::numeric_limits<std::int32_t>::min();
+
+/**
+ * Per-thread state of the coherent binning. key and acc are valid from index -1 (key to w + 1, acc to w) so that
+ * the columns beside a thread's edges flush without checks: their acc stays +Inf, their keys -1.
+ */
+struct EdgeTrack
+{
+  std::int32_t* key;
+  float* acc;
+  std::int32_t* count;            // events per row, then (counting sort) where each row's events start
+  std::vector<KeyEvent>* events;  // as scheduled: the first n (the vector only grows)
+  std::vector<KeyEvent>* sorted;  // by row, in schedule order within a row
+  std::size_t* n;
+  double *row_in, *row_out, *valid;  // scheduleEdge, per boundary
+};
+
+// row_in[i], row_out[i]: x p + q for the two shifted boundaries, clamped to [lo, end] (NaN: lo and end); valid[i]:
+// > 0 if both crossings lie where the ray's x > 0 (x a + b > 0).
+void crossingRows(double x, const double* __restrict pi, const double* __restrict qi, const double* __restrict ai,
+                  const double* __restrict bi, const double* __restrict po, const double* __restrict qo,
+                  const double* __restrict ao, const double* __restrict bo, int n, double lo, double end,
+                  double* __restrict row_in, double* __restrict row_out, double* __restrict valid)
+{
+  for (int i = 0; i < n; ++i)
+  {
+    double vi = x * pi[i] + qi[i], vo = x * po[i] + qo[i];
+    const double ci = x * ai[i] + bi[i], co = x * ao[i] + bo[i];
+    valid[i] = ci < co ? ci : co;
+    vi = vi > lo ? vi : lo;
+    row_in[i] = vi < end ? vi : end;
+    vo = vo < end ? vo : end;
+    row_out[i] = vo > lo ? vo : lo;
+  }
+}
+
+/**
+ * Appends the key changes of edge e in rows r0 + 1 .. r1, from its float bin positions f0 in row r0 and f1 in
+ * row r1, in the order they happen.
+ */
+void scheduleEdge(const ScanGeometry& g, const EdgeTrack& t, int e, int r0, int r1, float f0, float f1)
+{
+  const double x = g.xe[e];
+  const double cross = (g.ax * x + g.cp) * g.sr + (g.ay * x) * g.sp_cr;  // sign of d angle / d row
+  const int d = cross > 0.0 ? 1 : (cross < 0.0 ? -1 : 0);
+  // Boundaries whose margins the true bin position can reach between r0 and r1.
+  int j_lo = 0, j_hi = -1, n_rows = 0;
+  if (d != 0)
+  {
+    const double a = (d > 0 ? f0 : f1) - 2.0 * g.delta, b = (d > 0 ? f1 : f0) + 2.0 * g.delta;
+    j_lo = std::max(0, static_cast<int>(std::ceil(a)));
+    j_hi = std::min(g.beams, static_cast<int>(std::floor(b)));
+  }
+  else if (g.clampKey(f0 - 2.0 * g.delta) != g.clampKey(f0 + 2.0 * g.delta))
+  {
+    n_rows = r1 - r0;  // a ray that does not turn with the row, too close to call: look every row
+  }
+  // Room for a key change per boundary and a look per row; more looks grow the buffer below.
+  std::vector<KeyEvent>& ev = *t.events;
+  std::size_t n = *t.n;
+  const std::size_t need = n + std::max(0, j_hi - j_lo + 1) + n_rows + 64;
+  if (need > ev.size())
+    ev.resize(2 * need);  // grows until the largest frame fits, then never again
+  KeyEvent* buf = ev.data();
+  auto add = [&](int row, int key) {
+    buf[n++] = {static_cast<std::uint16_t>(row), static_cast<std::uint16_t>(e), key};
+    ++t.count[row];
+  };
+  for (int r = r0 + 1; r <= r0 + n_rows; ++r)
+    add(r, kExactKey);
+  if (j_lo > j_hi)
+  {
+    *t.n = n;
+    return;
+  }
+  // The first rows at or after the crossings of j -+ delta (entering the margins) and j +- delta (leaving them),
+  // within [r0 + 1, r1 + 1], for every j at once (vectorised); NaN: r0 + 1 (look early) on entering, r1 + 1 on
+  // leaving.
+  const double lo = r0 + 1.0, end = r1 + 1.0;
+  double* row_in = t.row_in;
+  double* row_out = t.row_out;
+  crossingRows(x, g.table(0, -d) + j_lo, g.table(1, -d) + j_lo, g.table(2, -d) + j_lo, g.table(3, -d) + j_lo,
+               g.table(0, d) + j_lo, g.table(1, d) + j_lo, g.table(2, d) + j_lo, g.table(3, d) + j_lo,
+               j_hi - j_lo + 1, lo, end, row_in, row_out, t.valid);
+  // In the order the true bin position reaches them.
+  for (int i = 0; i <= j_hi - j_lo; ++i)
+  {
+    const int k = d > 0 ? i : j_hi - j_lo - i, j = j_lo + k;
+    if (!(t.valid[k] > 0.0))
+    {
+      // A crossing lies where the ray's x <= 0: decide the side in row r0.
+      double vi = g.rowPast(e, r0, j, -d, d), vo = g.rowPast(e, r0, j, d, d);
+      vi = vi > lo ? vi : lo;
+      row_in[k] = vi < end ? vi : end;
+      vo = vo < end ? vo : end;
+      row_out[k] = vo > lo ? vo : lo;
+    }
+    // First rows at or after them (the values lie in [r0 + 1, r1 + 1]).
+    const int i_in = static_cast<int>(row_in[k]), i_out = static_cast<int>(row_out[k]);
+    const int in = i_in + (i_in < row_in[k]), out = i_out + (i_out < row_out[k]);
+    if (out > in && n + (out - in) + 1 > ev.size())
+    {
+      ev.resize(2 * (n + (out - in) + 1));
+      buf = ev.data();
+    }
+    for (int r = in; r < out; ++r)
+      add(r, kExactKey);  // between the margins: too close to call
+    if (out <= r1)
+      add(out, j - (d < 0));  // past j +- delta: the key after j
+  }
+  *t.n = n;
+}
+
+// Sorts the scheduled events by row (stable), rows r0 + 1 .. r1; count[r] becomes the first event of row r.
+void sortEvents(const EdgeTrack& t, int r0, int r1)
+{
+  int sum = 0;
+  for (int r = r0 + 1; r <= r1 + 1; ++r)
+  {
+    const int n = t.count[r];
+    t.count[r] = sum;
+    sum += n;
+  }
+  const std::size_t n = *t.n;
+  if (t.sorted->size() < n)
+    t.sorted->resize(t.events->size());
+  KeyEvent* out = t.sorted->data();
+  const KeyEvent* in = t.events->data();
+  for (std::size_t i = 0; i < n; ++i)
+    out[t.count[in[i].row]++] = in[i];
+  // count[r] is now where row r + 1 starts: shift back.
+  for (int r = r1 + 1; r > r0 + 1; --r)
+    t.count[r] = t.count[r - 1];
+  t.count[r0 + 1] = 0;
+}
+
+// Puts column u's nearest range into its bins (the keys of its edges; bins valid from -1 to beams) and restarts
+// it. Up to 3 bins without a branch, all loads before the stores (no store-to-load chain within).
+inline void flushColumn(const EdgeTrack& t, int u, float* bins)
+{
+  const float v = t.acc[u];
+  const int k0 = t.key[u], k1 = t.key[u + 1];
+  const int lo = k0 < k1 ? k0 : k1, hi = k0 < k1 ? k1 : k0;
+  const int mid = lo + (hi > lo);
+  const float b_lo = bins[lo], b_mid = bins[mid], b_hi = bins[hi];
+  bins[lo] = v < b_lo ? v : b_lo;
+  bins[mid] = v < b_mid ? v : b_mid;
+  bins[hi] = v < b_hi ? v : b_hi;
+  for (int k = lo + 2; k < hi; ++k)
+    bins[k] = v < bins[k] ? v : bins[k];
+  t.acc[u] = kInf;
+}
+
+// acc[u] = min(acc[u], range of pixel u of row r) for u in [a, b], the same arithmetic as spanRanges.
+template <typename T>
+void accumulateRow(const T* __restrict dst, int a, int b, float scale, const float* __restrict xn, float ax,
+                   float ay, float bx, float by, float* __restrict acc)
+{
+  const T removed = DepthTraits<T>::removed();
+  for (int u = a; u <= b; ++u)
+  {
+    const T v = dst[u];
+    bool gone;
+    if constexpr (std::is_floating_point_v<T>)
+      gone = v != v;
+    else
+      gone = v == removed;
+    const float z = gone ? kInf : static_cast<float>(v) * scale;
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    const float range = z * std::sqrt(x * x + y * y);
+    acc[u] = range < acc[u] ? range : acc[u];
+  }
+}
 }  // namespace
 
 /** Per-thread buffers, sized once per image size / beam count: no allocation per frame. */
 struct Pipeline::Scratch
 {
-  std::vector<float> row, tmp;  // one image row of the input's type (floats are the widest)
-  std::vector<float> t;         // threshold of each pixel of the row [m]
-  std::vector<float> z;         // depth of kept pixels of the row [m], +Inf for removed ones
-  std::vector<float> range;     // beam range of each pixel of the row [m], +Inf for removed ones
-  std::vector<float> colmin;    // column projection: nearest kept depth per column [m]
-  std::vector<float> edges;     // bin positions of the row's column edges
-  std::vector<float> bins;      // nearest range per beam seen by this thread
+  std::vector<float> row, tmp;   // one image row of the input's type (floats are the widest)
+  std::vector<float> t;          // threshold of each pixel of the row [m]
+  std::vector<float> z;          // depth of kept pixels of the row [m], +Inf for removed ones
+  std::vector<float> range;      // beam range of each pixel of the row [m], +Inf for removed ones
+  std::vector<float> colmin;     // column projection: nearest kept depth per column [m]
+  std::vector<float> edges;      // bin positions of the row's column edges
+  std::vector<float> bins;       // nearest range per beam seen by this thread
+  std::vector<std::int32_t> key;  // binRowMonotone: edge keys (+ kPad)
+  std::vector<float> xs, v, v2;  // binRowMonotone: pixel ranges, edge minima (+ kPad)
+  std::vector<float> rb;         // binRowMonotone: the row's bins (beams + 3)
+  std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
+  ValueSplit guess;                      // the last row's value thresholds
+  std::vector<std::int32_t> tkey, tcount;   // EdgeTrack
+  std::vector<float> acc, fb1;               // EdgeTrack: per column; bin positions of the last row
+  std::vector<KeyEvent> events, sorted;      // EdgeTrack (their capacity persists)
+  std::vector<double> row_in, row_out, valid;  // EdgeTrack: per boundary
+  float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
   std::array<std::uint64_t, kNumLabels> counts{};
 };
 
@@ -196,6 +916,7 @@ void Pipeline::prepareBuffers(int threads)
   if (static_cast<int>(scratch_.size()) < threads)
     scratch_.resize(threads);
   const std::size_t w = camera_.width;
+  const std::size_t beams = projector_.beams();
   for (int i = 0; i < threads; ++i)
   {
     if (!scratch_[i])
@@ -208,8 +929,24 @@ void Pipeline::prepareBuffers(int threads)
     s.range.resize(w);
     s.colmin.resize(w);
     s.edges.resize(w + 1);
-    s.bins.resize(projector_.beams());
+    s.bins.resize(beams + 2);  // from beam -1 to beams: the coherent flush writes there too
+    s.key.resize(w + 2 + kPad);
+    s.xs.resize(w + 2);
+    // runMinStep reads past the last edge (whose sentinel keys never match there).
+    s.v.resize(w + 2 + kPad);
+    s.v2.resize(w + 2 + kPad);
+    s.rb.resize(beams + 3);
+    s.vlab.resize(256);
+    s.vdst.resize(256);
+    s.tkey.resize(w + 3);  // from edge -1 to w + 1
+    s.tcount.resize(camera_.height + 2);
+    s.acc.resize(w + 2);  // from column -1 to w
+    s.fb1.resize(w + 1);
+    s.row_in.resize(beams + 1);
+    s.row_out.resize(beams + 1);
+    s.valid.resize(beams + 1);
   }
+  spans_.resize(2 * static_cast<std::size_t>(camera_.height));
 }
 
 void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out)
@@ -298,16 +1035,13 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   const bool rect = config_.open_kernel_shape == KernelShape::kRect;
 
   // Stage 1: unknown -> no return, then the opening's erosion (or the whole OpenCV opening for other shapes).
+  // Stage 2a, rows in parallel: dilation, plane removal, labels, cleaned depth and each row's kept span.
+  // Stage 2b, columns in parallel: beam binning.
+  // One parallel region for the rectangular opening's erosion and stage 2 (each fork costs a wake-up).
   auto t1 = Clock::now();
   if (rad > 0 && rect)
   {
     eroded_.create(depth.size(), depth.type());
-#pragma omp parallel for num_threads(threads) schedule(static)
-    for (int r = 0; r < h; ++r)
-    {
-      Scratch& s = *scratch_[threadId()];
-      detail::erodeMappedRow<T>(depth, r, rad, reinterpret_cast<T*>(s.tmp.data()), eroded_.ptr<T>(r));
-    }
   }
   else if (rad > 0)
   {
@@ -323,12 +1057,9 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     const int cv_shape = config_.open_kernel_shape == KernelShape::kCross ? cv::MORPH_CROSS : cv::MORPH_ELLIPSE;
     cv::morphologyEx(mapped_, opened_, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(ksize, ksize)));
   }
-  out.times.erode = msSince(t1);
-
-  // Stage 2, one fused loop over rows: dilation, plane removal, labels, cleaned depth, beam binning.
-  t1 = Clock::now();
   const float scale = depthScale<T>(config_.max_depth);
-  const float* col = planes_.colTerm().data();
+  const std::vector<float>& colterm = planes_.colTerm();
+  const float* col = colterm.data();
   const float* rowterm = planes_.rowTerm().data();
   const float floor_h = planes_.floorOffset();
   const float ceil_h = planes_.ceilingOffset();
@@ -336,18 +1067,132 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   const float half_turn_bins = 3.14159265f / projector_.angleIncrement();
   const ThresholdLut& lut = lut_;
   const bool column = projector_.projection() == Projection::kColumn;
+  // 8-bit frames without roll: classify each row by value thresholds (see ValueSplit).
+  bool by_value = false;
+  std::array<float, 256> colc;
+  std::array<std::uint8_t, 256> values;
+  ValueProof proof;
+  if constexpr (std::is_same_v<T, std::uint8_t>)
+  {
+    by_value = std::all_of(colterm.begin(), colterm.end(), [&](float c) { return c == colterm[0]; });
+    colc.fill(colterm[0]);
+    for (int v = 0; v < 256; ++v)
+      values[v] = static_cast<std::uint8_t>(v);
+    proof.build(lut.table().data(), scale, floor_h, ceil_h);
+  }
+  // Rows [coh_lo, coh_hi] are binned coherently (see ScanGeometry): every edge ray of them points forward.
+  ScanGeometry geo{};
+  int coh_lo = 0, coh_hi = -1;
+  if (!column)
+  {
+    const ScanProjector& p = projector_;
+    geo.xe = p.xe_.data();
+    geo.xn = p.xn_.data();
+    geo.bx = p.bx_.data();
+    geo.by = p.by_.data();
+    geo.ax = p.ax_;
+    geo.ay = p.ay_;
+    geo.lo = p.lo_;
+    geo.inv = 1.0f / p.inc_;
+    geo.beams = beams;
+    geo.cy = p.cy_;
+    geo.fy = p.fy_;
+    geo.cp = p.cp_;
+    geo.sp_cr = p.sp_ * p.cr_;
+    geo.sr = p.sr_;
+    geo.bc = p.bound_cos_.data();
+    geo.bs = p.bound_sin_.data();
+    constexpr float kMinX = 0.05f;
+    const float x0 = p.xe_.front(), xw = p.xe_.back();
+    double x_min = std::numeric_limits<double>::infinity(), b_max = 0.0, y_max = 0.0;
+    int first = -1, last = -1, n_ok = 0;
+    for (int r = 0; r < h; ++r)
+    {
+      const float xa = geo.ax * x0 + geo.bx[r], xb = geo.ax * xw + geo.bx[r];
+      if (!(xa >= kMinX && xb >= kMinX))
+        continue;
+      first = first < 0 ? r : first;
+      last = r;
+      ++n_ok;
+      x_min = std::min(x_min, static_cast<double>(std::min(xa, xb)));
+      b_max = std::max(b_max, std::fabs(static_cast<double>(geo.bx[r])) + std::fabs(geo.by[r]));
+      y_max = std::max(y_max, std::fabs(static_cast<double>(p.yn_[r])));
+    }
+    // Margin [bins] over the error of the float bin position, with a quarter to spare: fastAtan2 (max 1.98e-6
+    // rad measured over its range), the rounding of the ray's terms (relative to its length >= x_min) and of
+    // (angle - lo) * inv.
+    const double u = 1.0 / 16777216.0, inv = geo.inv;
+    const double xm = std::max(std::fabs(x0), std::fabs(xw));
+    const double ray = u * (2.0 + ((std::fabs(geo.ax) + std::fabs(geo.ay)) * xm + b_max + 2.0 * y_max) / x_min);
+    geo.delta = 1.25 * (2.1e-6 + ray + 2.0 * u * (1.5708 + std::fabs(geo.lo))) * inv;
+    geo.cd = std::cos(geo.delta / inv);
+    geo.sd = std::sin(geo.delta / inv);
+    // Side tests need every boundary within a quarter turn of forward.
+    const bool fits = geo.lo >= -1.5707 && geo.lo + beams / inv <= 1.5707;
+    const bool small = h <= 65536 && w < 65536;  // KeyEvent
+    if (n_ok > 0 && n_ok == last - first + 1 && geo.delta < 0.2 && fits && small)
+    {
+      coh_lo = first;
+      coh_hi = last;
+    }
+    crossings_.resize(8 * static_cast<std::size_t>(beams + 1));
+    geo.cross = crossings_.data();
+  }
+  double* crossings = crossings_.data();
 
+  int team = 1;  // threads OpenMP actually gave: only their scratch holds this frame's bins
+  Clock::time_point t2 = t1;
 #pragma omp parallel num_threads(threads)
   {
     Scratch& s = *scratch_[threadId()];
+#ifdef _OPENMP
+#pragma omp single nowait
+    team = omp_get_num_threads();
+#endif
+    if (rad > 0 && rect)
+    {
+#pragma omp for schedule(static)
+      for (int r = 0; r < h; ++r)
+        detail::erodeMappedRow<T>(depth, r, rad, reinterpret_cast<T*>(s.tmp.data()), eroded_.ptr<T>(r));
+    }
+#pragma omp single nowait
+    t2 = Clock::now();
     std::fill(s.bins.begin(), s.bins.end(), kInf);
     s.counts.fill(0);
     T* row = reinterpret_cast<T*>(s.row.data());
     T* tmp = reinterpret_cast<T*>(s.tmp.data());
     float* z = s.z.data();
-    float* bins = s.bins.data();
+    float* range = s.range.data();
+    float* fb = s.edges.data();
+    float* bins = s.bins.data() + 1;  // bins[-1] and bins[beams] take what lies outside the scan
+    const BinScratch bs{s.key.data(), s.xs.data(), s.v.data(), s.v2.data(), s.rb.data()};
     if (column)
       std::fill(s.colmin.begin(), s.colmin.end(), kInf);
+    if (!column)
+    {
+      // ScanProjector::coverage, split over the threads: the bin positions of the outer edges of each row.
+      s.cov_lo = kInf;
+      s.cov_hi = -kInf;
+#pragma omp for schedule(static) nowait
+      for (int r = 0; r < h; ++r)
+      {
+        for (const float x : {geo.xe[0], geo.xe[w]})
+        {
+          const float f = (fastAtan2(geo.ay * x + geo.by[r], geo.ax * x + geo.bx[r]) - geo.lo) * geo.inv;
+          s.cov_lo = std::min(s.cov_lo, f);
+          s.cov_hi = std::max(s.cov_hi, f);
+        }
+      }
+    }
+    if (coh_lo <= coh_hi)
+    {
+#pragma omp for schedule(static) nowait
+      for (int j = 0; j <= beams; ++j)
+      {
+        geo.crossing(j, -1, crossings);
+        geo.crossing(j, +1, crossings);
+      }
+    }
 
 #pragma omp for schedule(dynamic, 8)
     for (int r = 0; r < h; ++r)
@@ -372,48 +1217,134 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 
       T* dst = out.depth.ptr<T>(r);
       std::uint8_t* lab = out.labels.ptr<std::uint8_t>(r);
-      float* t = s.t.data();
-      // The threshold lookup is a gather, which SSE cannot vectorise: keep it in its own short loop.
-      for (int u = 0; u < w; ++u)
+      RowCounts c;
+      bool done = false;
+      if constexpr (std::is_same_v<T, std::uint8_t>)
       {
-        if constexpr (std::is_same_v<T, std::uint8_t>)
-          t[u] = lut.forValue(src[u]);
-        else
-          t[u] = lut.forDepth(static_cast<float>(src[u]) * scale);
+        if (by_value)
+        {
+          int lo, hi;
+          valueRange(src, w, lo, hi);
+          ValueSplit split;
+          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
+          if (splitValues(label, proof, lo, hi, s.guess, s.vlab.data(), s.vdst.data(), split))
+          {
+            c = splitRow(src, w, split, lab, dst);
+            done = true;
+          }
+        }
       }
-      RowCounts c = classifyRow<T>(src, t, col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, z);
-      const int n_kept = c.kept;
+      if (!done)
+      {
+        thresholdRow<T>(src, lut, scale, w, s.t.data());
+        c = classifyRow<T>(src, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst);
+      }
       s.counts[kKept] += c.kept;
       s.counts[kInvalid] += c.invalid;
       s.counts[kFloor] += c.floor;
       s.counts[kAboveCeiling] += c.ceiling;
       s.counts[kBelowFloor] += w - c.kept - c.invalid - c.floor - c.ceiling;
-      if (n_kept == 0)
+      spans_[2 * r] = w;
+      spans_[2 * r + 1] = -1;
+      if (c.kept == 0)
         continue;
-
+      // Only the span from the first to the last kept pixel can reach a bin.
+      const int a = firstKept(lab, w), b = lastKept(lab, w);
+      spans_[2 * r] = a;
+      spans_[2 * r + 1] = b;
       if (column)
       {
         // The column projection's bin and range factor depend on the column only: keep the nearest depth
         // per column and bin the columns once per frame.
-        float* cm = s.colmin.data();
-        for (int u = 0; u < w; ++u)
-          cm[u] = z[u] < cm[u] ? z[u] : cm[u];
-        continue;
+        keptDepth<T>(dst, a, b, scale, z);
+        minInto(z, a, b, s.colmin.data());
       }
-      const float* fb = projector_.rowEdgeBins(r, s.edges.data());
-      float* range = s.range.data();
-      projector_.rowRanges(r, z, range);
-      binRow(fb, range, w, beams, half_turn_bins, bins);
     }
+    // (implicit barrier: 2b reads every row)
+
     if (column)
     {
-      const float* fb = projector_.rowEdgeBins(0, s.edges.data());
-      float* range = s.range.data();
+      const float* cfb = projector_.rowEdgeBins(0, fb);
       projector_.rowRanges(0, s.colmin.data(), range);
-      binRow(fb, range, w, beams, half_turn_bins, bins);
+      if (!binRowMonotone(cfb, range, 0, w - 1, beams, half_turn_bins, bs, bins))
+        binRow(cfb, range, w, beams, half_turn_bins, bins);
+    }
+    else
+    {
+      // Column chunks [c0, c1) and their edges [c0, c1], every row; a few chunks per thread, scheduled
+      // dynamically so that a thread held up elsewhere costs little.
+      const int chunks = team == 1 ? 1 : std::min(w, 4 * team);
+#pragma omp for schedule(dynamic, 1)
+      for (int chunk = 0; chunk < chunks; ++chunk)
+      {
+        const int c0 = static_cast<int>(static_cast<long>(w) * chunk / chunks);
+        const int c1 = static_cast<int>(static_cast<long>(w) * (chunk + 1) / chunks);
+        std::size_t n_events = 0;
+        const EdgeTrack trk{s.tkey.data() + 1, s.acc.data() + 1, s.tcount.data(), &s.events, &s.sorted, &n_events,
+                            s.row_in.data(), s.row_out.data(), s.valid.data()};
+        // The last row of the chunk binned coherently.
+        int r_end = -1;
+        for (int r = std::min(coh_hi, h - 1); r >= coh_lo && r_end < 0; --r)
+          if (std::max(spans_[2 * r], c0) <= std::min(spans_[2 * r + 1], c1 - 1))
+            r_end = r;
+        bool started = false;
+        int last = -1;
+        for (int r = 0; r < h && c0 < c1; ++r)
+        {
+          const int a = std::max(spans_[2 * r], c0), b = std::min(spans_[2 * r + 1], c1 - 1);
+          if (a > b)
+            continue;
+          const T* dst = out.depth.ptr<T>(r);
+          if (r < coh_lo || r > coh_hi)
+          {
+            keptDepth<T>(dst, a, b, scale, z);
+            projector_.edgeBins(r, a, b + 1, fb);
+            projector_.spanRanges(r, a, b, z, range);
+            if (!binRowMonotone(fb, range, a, b, beams, half_turn_bins, bs, bins))
+              binRow(fb + a, range + a, b - a + 1, beams, half_turn_bins, bins);
+            continue;
+          }
+          if (!started)
+          {
+            // The keys in this row, and every key change up to row r_end.
+            started = true;
+            std::fill(trk.count + r, trk.count + r_end + 2, 0);
+            std::fill(trk.acc - 1, trk.acc + w + 1, kInf);
+            std::fill(trk.key - 1, trk.key + w + 2, -1);
+            projector_.edgeBins(r, c0, c1, fb);
+            projector_.edgeBins(r_end, c0, c1, s.fb1.data());
+            for (int e = c0; e <= c1; ++e)
+            {
+              trk.key[e] = geo.clampKey(fb[e]);
+              scheduleEdge(geo, trk, e, r, r_end, fb[e], s.fb1[e]);
+            }
+            sortEvents(trk, r, r_end);
+          }
+          else
+          {
+            // The key changes since the last row binned, in order.
+            const KeyEvent* ev = s.sorted.data();
+            for (int i = trk.count[last + 1], n = trk.count[r + 1]; i < n; ++i)
+            {
+              // The columns beside the edge change bins: flush them with the old key first.
+              const int e = ev[i].edge;
+              const int k = ev[i].key == kExactKey ? geo.exactKey(e, r) : ev[i].key;
+              flushColumn(trk, e - 1, bins);
+              flushColumn(trk, e, bins);
+              trk.key[e] = k;
+            }
+          }
+          last = r;
+          accumulateRow<T>(dst, a, b, scale, geo.xn, geo.ax, geo.ay, geo.bx[r], geo.by[r], trk.acc);
+        }
+        if (started)
+          for (int u = c0; u < c1; ++u)
+            flushColumn(trk, u, bins);
+      }
     }
   }
-  out.times.classify_scan = msSince(t1);
+  out.times.erode = std::chrono::duration<double, std::milli>(t2 - t1).count();
+  out.times.classify_scan = msSince(t2);
 
   // Stage 3: reduce the threads' bins, apply REP 117, rolling confidence.
   t1 = Clock::now();
@@ -425,16 +1356,29 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   scan.range_max = static_cast<float>(config_.range_max);
   scan.ranges.assign(beams, kInf);
   out.counts.fill(0);
-  for (int i = 0; i < threads; ++i)
+  for (int i = 0; i < team; ++i)
   {
     const Scratch& s = *scratch_[i];
     for (int b = 0; b < beams; ++b)
-      scan.ranges[b] = std::min(scan.ranges[b], s.bins[b]);
+      scan.ranges[b] = std::min(scan.ranges[b], s.bins[b + 1]);
     for (int k = 0; k < kNumLabels; ++k)
       out.counts[k] += s.counts[k];
   }
   float cov_lo, cov_hi;
-  projector_.coverage(cov_lo, cov_hi);
+  if (column)
+  {
+    projector_.coverage(cov_lo, cov_hi);
+  }
+  else
+  {
+    cov_lo = kInf;
+    cov_hi = -kInf;
+    for (int i = 0; i < team; ++i)
+    {
+      cov_lo = std::min(cov_lo, scratch_[i]->cov_lo);
+      cov_hi = std::max(cov_hi, scratch_[i]->cov_hi);
+    }
+  }
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int b = 0; b < beams; ++b)
   {

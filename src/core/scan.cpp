@@ -54,6 +54,18 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   }
   bx_.assign(height_, 1.0f);
   by_.assign(height_, 0.0f);
+  cy_ = camera.cy;
+  fy_ = camera.fy;
+  // Where the float bin position (theta - lo) * inv crosses j in exact arithmetic.
+  const double inv = 1.0f / inc_;
+  bound_cos_.resize(beams_ + 1);
+  bound_sin_.resize(beams_ + 1);
+  for (int j = 0; j <= beams_; ++j)
+  {
+    const double phi = static_cast<double>(lo_) + j / inv;
+    bound_cos_[j] = std::cos(phi);
+    bound_sin_[j] = std::sin(phi);
+  }
 }
 
 void ScanProjector::setPose(double pitch, double roll)
@@ -62,6 +74,10 @@ void ScanProjector::setPose(double pitch, double roll)
     return;
   // The ray (1, -xn, -yn) of the sensor frame rotated by roll about x, then pitch about y (see PlaneModel).
   const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+  sp_ = sp;
+  cp_ = cp;
+  sr_ = sr;
+  cr_ = cr;
   ax_ = static_cast<float>(-sp * sr);
   ay_ = static_cast<float>(-cr);
   for (int r = 0; r < height_; ++r)
@@ -75,32 +91,53 @@ const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
 {
   if (projection_ == Projection::kColumn)
     return col_edge_bins_.data();
-  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r], lo = lo_, inv = 1.0f / inc_;
-  const float* __restrict xe = xe_.data();
-  float* __restrict out = buffer;
-  const int n = width_ + 1;
-  for (int e = 0; e < n; ++e)
-    out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
+  edgeBins(r, 0, width_, buffer);
   return buffer;
+}
+
+namespace
+{
+// Restrict parameters of a small function: the loops vectorise without a runtime alias check.
+void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
+                 float inv, float* __restrict out)
+{
+  for (int e = e0; e <= e1; ++e)
+    out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
+}
+
+void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+               const float* __restrict z, float* __restrict out)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    out[u] = z[u] * std::sqrt(x * x + y * y);
+  }
+}
+
+void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restrict z, float* __restrict out)
+{
+  for (int u = u0; u <= u1; ++u)
+    out[u] = z[u] * k[u];
+}
+}  // namespace
+
+void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
+{
+  edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
 }
 
 void ScanProjector::rowRanges(int r, const float* depth, float* range) const
 {
-  const int w = width_;
+  spanRanges(r, 0, width_ - 1, depth, range);
+}
+
+void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float* range) const
+{
   if (projection_ == Projection::kColumn)
-  {
-    const float* k = col_factor_.data();
-    for (int u = 0; u < w; ++u)
-      range[u] = depth[u] * k[u];
-    return;
-  }
-  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
-  const float* xn = xn_.data();
-  for (int u = 0; u < w; ++u)
-  {
-    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-    range[u] = depth[u] * std::sqrt(x * x + y * y);
-  }
+    scaleLoop(col_factor_.data(), u0, u1, depth, range);
+  else
+    rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
 }
 
 void ScanProjector::coverage(float& lo, float& hi) const
