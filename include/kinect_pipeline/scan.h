@@ -99,6 +99,8 @@ private:
 
   /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
   void edgeBins(int r, int e0, int e1, float* out) const;
+  /** @brief Fractional bin positions of the centres of pixels u0..u1 of row r (into out[u0..u1]). */
+  void centreBins(int r, int u0, int u1, float* out) const;
   /** @brief range[u] = depth[u] * rangeFactor(u, r) for u in [u0, u1] only (+Inf depth stays +Inf). */
   void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
 
@@ -107,7 +109,7 @@ private:
   float angle_min_ = 0.0f, angle_max_ = 0.0f, inc_ = 1.0f, lo_ = 0.0f;
   std::vector<float> xn_, xe_;                    // per column centre / edge
   std::vector<float> yn_;                         // per row
-  std::vector<float> col_edge_bins_, col_factor_;  // column projection
+  std::vector<float> col_edge_bins_, col_centre_bins_, col_factor_;  // column projection
   float ax_ = 0.0f, ay_ = 0.0f;
   std::vector<float> bx_, by_;                    // horizontal projection, per row
   double cy_ = 0.0, fy_ = 1.0;                        ///< row r has yn = (r - cy) / fy

@@ -97,6 +97,52 @@ RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const 
   return {n_kept, n_invalid, n_floor, n_ceiling};
 }
 
+/**
+ * The opening can only move a depth nearer (a max of mins). Where it moved a pixel that the raw depth shows on the
+ * floor or beyond the ceiling plane (at the corner of an object, or far down the floor where a row spans
+ * metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not a new obstacle.
+ * @param in the input row (unmapped), @param src the opened row
+ */
+template <typename T>
+void rescueByRaw(const T* __restrict in, const T* __restrict src, const ThresholdLut& lut, const float* col,
+                 float rise_row, float scale, float floor_h, float ceil_h, int w, std::uint8_t* lab, T* dst,
+                 RowCounts& c)
+{
+  using Tr = DepthTraits<T>;
+  for (int u = 0; u < w; ++u)
+  {
+    if (lab[u] != kKept && lab[u] != kBelowFloor)
+      continue;
+    const T raw = Tr::map(in[u]);
+    if (raw == src[u] || Tr::isNoReturn(raw))
+      continue;
+    const float d = static_cast<float>(raw) * scale;
+    float t;
+    if constexpr (std::is_same_v<T, std::uint8_t>)
+      t = lut.forValue(raw);
+    else
+      t = lut.forDepth(d);
+    const float rise = col[u] + rise_row;
+    const float e = d * rise;
+    const float above = e + floor_h;
+    std::uint8_t label;
+    if (e > ceil_h)
+      label = kAboveCeiling;
+    else if (rise < 0.0f && above < -t * rise && above > t * rise)
+      label = kFloor;
+    else
+      continue;
+    if (lab[u] == kKept)
+      --c.kept;
+    if (label == kFloor)
+      ++c.floor;
+    else
+      ++c.ceiling;
+    lab[u] = label;
+    dst[u] = Tr::removed();
+  }
+}
+
 template <typename T>
 void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
 {
@@ -383,49 +429,41 @@ void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
 }
 
 /**
- * Puts the ranges of one row's pixels into the bins each pixel overlaps (min per bin). fb holds the bin
- * positions of the row's w + 1 column edges, monotone along a row except where a row wraps behind the
- * sensor. Walking in the direction of increasing bins keeps the current bin's minimum in a register.
+ * Bins one row's pixels by the bearing of their centres (fc[u]: fractional bin position of pixel u's centre), min
+ * per bin: a bin holds exactly the pixels whose centres fall in it. Where neighbouring centres are more than one
+ * bin apart, the bins between them go to the nearer centre (in bearing), so that the binning leaves no bin empty
+ * that a surface covers. Pixels whose neighbour lies half a turn away (straddling the direction behind) are not
+ * used to fill.
  */
-void binRow(const float* fb, const float* range, int w, int beams, float half_turn_bins, float* bins)
+void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins, float* bins)
 {
-  const bool reverse = fb[w] < fb[0];
-  int cur = -2;
-  float cur_min = kInf;
-  auto flush = [&]() {
-    if (cur >= 0 && cur < beams && cur_min < bins[cur])
-      bins[cur] = cur_min;
+  const float nb = static_cast<float>(beams);
+  auto put = [&](int k, float r) {
+    if (k >= 0 && k < beams && r < bins[k])
+      bins[k] = r;
   };
-  for (int i = 0; i < w; ++i)
+  for (int u = a; u <= b; ++u)
   {
-    const int u = reverse ? w - 1 - i : i;
     const float r = range[u];
-    if (!(r < kInf))
+    if (r < kInf && fc[u] >= 0.0f && fc[u] < nb)
+      put(static_cast<int>(fc[u]), r);
+    if (u == b)
+      break;
+    const float f0 = fc[u], f1 = fc[u + 1];
+    const float r1 = range[u + 1];
+    if (!(r < kInf) && !(r1 < kInf))
       continue;
-    const float a = fb[u], b = fb[u + 1];
-    float lo = a < b ? a : b, hi = a < b ? b : a;
-    if (hi - lo > half_turn_bins || hi < 0.0f || lo >= static_cast<float>(beams))
-      continue;  // outside the scan, or a pixel straddling the direction straight behind the sensor
-    const int first = lo < 0.0f ? 0 : static_cast<int>(lo);
-    const int last = hi >= static_cast<float>(beams) ? beams - 1 : static_cast<int>(hi);
-    if (first != cur)
-    {
-      flush();
-      cur = first;
-      cur_min = r;
-    }
-    else if (r < cur_min)
-    {
-      cur_min = r;
-    }
-    while (cur < last)
-    {
-      flush();
-      ++cur;
-      cur_min = r;
-    }
+    if (std::fabs(f1 - f0) > half_turn_bins)
+      continue;
+    const float lo = f0 < f1 ? f0 : f1, hi = f0 < f1 ? f1 : f0;
+    const int k0 = static_cast<int>(std::floor(lo)) + 1, k1 = static_cast<int>(std::floor(hi)) - 1;
+    if (k0 > k1)
+      continue;
+    const float mid = 0.5f * (lo + hi);
+    const float r_lo = f0 < f1 ? r : r1, r_hi = f0 < f1 ? r1 : r;
+    for (int k = std::max(k0, 0); k <= std::min(k1, beams - 1); ++k)
+      put(k, (k + 0.5f) < mid ? r_lo : r_hi);
   }
-  flush();
 }
 
 // ---- Fast path of binRow for rows whose edge bins are monotone (nearly all of them) ----
@@ -440,24 +478,6 @@ struct Widths
 };
 
 // Signs and extremes of the pixel widths in bins (float bits of non-negative floats order like the floats).
-Widths pixelWidths(const float* __restrict fb, int n)
-{
-  int neg = 0, pos = 0;
-  std::int32_t amin = 0x7fffffff, amax = 0;
-  for (int u = 0; u < n; ++u)
-  {
-    const float d = fb[u + 1] - fb[u];
-    neg += d < 0.0f;
-    pos += d > 0.0f;
-    std::int32_t bits;
-    std::memcpy(&bits, &d, 4);
-    bits &= 0x7fffffff;
-    amin = bits < amin ? bits : amin;
-    amax = bits > amax ? bits : amax;
-  }
-  return {neg, pos, amin, amax};
-}
-
 // key = floor(fb) clamped to [-1, beams] (the ends collect everything outside the scan), in key order.
 template <bool kReverse>
 void edgeKeys(const float* __restrict fb, int n, float beams, std::int32_t* __restrict key)
@@ -487,108 +507,12 @@ void pixelRanges(const float* __restrict range, int n, float* __restrict xs)
 }
 
 // v[i] = the nearer of the two pixels beside edge i.
-void edgeMin(const float* __restrict xs, int n_edges, float* __restrict v)
-{
-  for (int i = 0; i < n_edges; ++i)
-    v[i] = xs[i + 1] < xs[i] ? xs[i + 1] : xs[i];
-}
-
 // One doubling step of a segmented minimum: dst[i] = min of src over the edges i .. i + s with key[i].
-void runMinStep(const std::int32_t* __restrict key, const float* __restrict src, int n, int s, float* __restrict dst)
-{
-  for (int i = 0; i < n; ++i)
-  {
-    const float m = src[i + s] < src[i] ? src[i + s] : src[i];
-    dst[i] = key[i] == key[i + s] ? m : src[i];
-  }
-}
-
-/**
- * Write-only scatter of a monotone row into rb (index key + 2). Bin key[i] is covered by the pixels beside the
- * edges with that key, a bin strictly between key[i] and key[i + 1] by pixel i alone. Going down the keys,
- * each pixel first writes its inner bins and each edge then its own bin, so the last write to a bin is the
- * first edge of its run, which holds the run's minimum. No loads of rb: no store-to-load chains.
- */
-void scatterRow(const std::int32_t* __restrict key, const float* __restrict x, const float* __restrict v, int n,
-                float* __restrict rb)
-{
-  int k_hi = key[n];
-  rb[k_hi + 2] = v[n];
-  for (int i = n - 1; i >= 0; --i)
-  {
-    const int k = key[i];
-    const float xi = x[i];
-    rb[k_hi + 1] = xi;  // bin k_hi - 1; a bin of pixel i only if k_hi - 1 > k, else rewritten below or unused
-    for (int j = k + 1; j < k_hi - 1; ++j)
-      rb[j + 2] = xi;
-    rb[k + 2] = v[i];
-    k_hi = k;
-  }
-}
-
-void mergeBins(const float* __restrict rb, int k0, int k1, float* __restrict bins)
-{
-  for (int k = k0; k <= k1; ++k)
-    bins[k] = rb[k + 2] < bins[k] ? rb[k + 2] : bins[k];
-}
-
 struct BinScratch
 {
   std::int32_t* key;
   float *xs, *v, *v2, *rb;
 };
-
-/**
- * binRow for the pixels a..b of a row (fb[a..b + 1], range[a..b]) when their edge bins are monotone, no pixel
- * spans more than half a turn and a bin holds at most 2^kMaxRunSteps edges; the same bins, branch-free.
- * @return false, with nothing written, for other rows
- */
-bool binRowMonotone(const float* fb, const float* range, int a, int b, int beams, float half_turn_bins,
-                    const BinScratch& s, float* bins)
-{
-  const int n = b - a + 1;
-  const Widths wd = pixelWidths(fb + a, n);
-  if (wd.neg > 0 && wd.pos > 0)
-    return false;
-  float amin, amax;
-  std::memcpy(&amin, &wd.amin, 4);
-  std::memcpy(&amax, &wd.amax, 4);
-  if (amax > half_turn_bins)
-    return false;
-  // A run of L edges in one bin spans L - 1 pixels and less than 1 bin: L <= 2^steps if amin >= 1 / 2^steps
-  // (with a margin for the rounding of the widths).
-  int steps = 0;
-  for (float need = 1.01f; amin < need; need *= 0.5f)
-    if (++steps > kMaxRunSteps)
-      return false;
-
-  const bool reverse = wd.pos == 0;
-  const float beams_f = static_cast<float>(beams);
-  if (reverse)
-  {
-    edgeKeys<true>(fb + a, n + 1, beams_f, s.key);
-    pixelRanges<true>(range + a, n, s.xs);
-  }
-  else
-  {
-    edgeKeys<false>(fb + a, n + 1, beams_f, s.key);
-    pixelRanges<false>(range + a, n, s.xs);
-  }
-  for (int i = n + 1; i <= n + kPad; ++i)
-    s.key[i] = std::numeric_limits<std::int32_t>::min();
-  float* v = s.v;
-  float* v2 = s.v2;
-  edgeMin(s.xs, n + 1, v);
-  for (int i = 0, step = 1; i < steps; ++i, step *= 2)
-  {
-    runMinStep(s.key, v, n + 1, step, v2);
-    std::swap(v, v2);
-  }
-  scatterRow(s.key, s.xs + 1, v, n, s.rb);
-  const int k0 = std::max(s.key[0], 0), k1 = std::min(s.key[n], beams - 1);
-  mergeBins(s.rb, k0, k1, bins);
-  return true;
-}
 
 // ---- Row-coherent binning of the horizontal projection ----
 //
@@ -699,140 +623,9 @@ struct EdgeTrack
 
 // row_in[i], row_out[i]: x p + q for the two shifted boundaries, clamped to [lo, end] (NaN: lo and end); valid[i]:
 // > 0 if both crossings lie where the ray's x > 0 (x a + b > 0).
-void crossingRows(double x, const double* __restrict pi, const double* __restrict qi, const double* __restrict ai,
-                  const double* __restrict bi, const double* __restrict po, const double* __restrict qo,
-                  const double* __restrict ao, const double* __restrict bo, int n, double lo, double end,
-                  double* __restrict row_in, double* __restrict row_out, double* __restrict valid)
-{
-  for (int i = 0; i < n; ++i)
-  {
-    double vi = x * pi[i] + qi[i], vo = x * po[i] + qo[i];
-    const double ci = x * ai[i] + bi[i], co = x * ao[i] + bo[i];
-    valid[i] = ci < co ? ci : co;
-    vi = vi > lo ? vi : lo;
-    row_in[i] = vi < end ? vi : end;
-    vo = vo < end ? vo : end;
-    row_out[i] = vo > lo ? vo : lo;
-  }
-}
-
-/**
- * Appends the key changes of edge e in rows r0 + 1 .. r1, from its float bin positions f0 in row r0 and f1 in
- * row r1, in the order they happen.
- */
-void scheduleEdge(const ScanGeometry& g, const EdgeTrack& t, int e, int r0, int r1, float f0, float f1)
-{
-  const double x = g.xe[e];
-  const double cross = (g.ax * x + g.cp) * g.sr + (g.ay * x) * g.sp_cr;  // sign of d angle / d row
-  const int d = cross > 0.0 ? 1 : (cross < 0.0 ? -1 : 0);
-  // Boundaries whose margins the true bin position can reach between r0 and r1.
-  int j_lo = 0, j_hi = -1, n_rows = 0;
-  if (d != 0)
-  {
-    const double a = (d > 0 ? f0 : f1) - 2.0 * g.delta, b = (d > 0 ? f1 : f0) + 2.0 * g.delta;
-    j_lo = std::max(0, static_cast<int>(std::ceil(a)));
-    j_hi = std::min(g.beams, static_cast<int>(std::floor(b)));
-  }
-  else if (g.clampKey(f0 - 2.0 * g.delta) != g.clampKey(f0 + 2.0 * g.delta))
-  {
-    n_rows = r1 - r0;  // a ray that does not turn with the row, too close to call: look every row
-  }
-  // Room for a key change per boundary and a look per row; more looks grow the buffer below.
-  std::vector<KeyEvent>& ev = *t.events;
-  std::size_t n = *t.n;
-  const std::size_t need = n + std::max(0, j_hi - j_lo + 1) + n_rows + 64;
-  if (need > ev.size())
-    ev.resize(2 * need);  // grows until the largest frame fits, then never again
-  KeyEvent* buf = ev.data();
-  auto add = [&](int row, int key) {
-    buf[n++] = {static_cast<std::uint16_t>(row), static_cast<std::uint16_t>(e), key};
-    ++t.count[row];
-  };
-  for (int r = r0 + 1; r <= r0 + n_rows; ++r)
-    add(r, kExactKey);
-  if (j_lo > j_hi)
-  {
-    *t.n = n;
-    return;
-  }
-  // The first rows at or after the crossings of j -+ delta (entering the margins) and j +- delta (leaving them),
-  // within [r0 + 1, r1 + 1], for every j at once (vectorised); NaN: r0 + 1 (look early) on entering, r1 + 1 on
-  // leaving.
-  const double lo = r0 + 1.0, end = r1 + 1.0;
-  double* row_in = t.row_in;
-  double* row_out = t.row_out;
-  crossingRows(x, g.table(0, -d) + j_lo, g.table(1, -d) + j_lo, g.table(2, -d) + j_lo, g.table(3, -d) + j_lo,
-               g.table(0, d) + j_lo, g.table(1, d) + j_lo, g.table(2, d) + j_lo, g.table(3, d) + j_lo,
-               j_hi - j_lo + 1, lo, end, row_in, row_out, t.valid);
-  // In the order the true bin position reaches them.
-  for (int i = 0; i <= j_hi - j_lo; ++i)
-  {
-    const int k = d > 0 ? i : j_hi - j_lo - i, j = j_lo + k;
-    if (!(t.valid[k] > 0.0))
-    {
-      // A crossing lies where the ray's x <= 0: decide the side in row r0.
-      double vi = g.rowPast(e, r0, j, -d, d), vo = g.rowPast(e, r0, j, d, d);
-      vi = vi > lo ? vi : lo;
-      row_in[k] = vi < end ? vi : end;
-      vo = vo < end ? vo : end;
-      row_out[k] = vo > lo ? vo : lo;
-    }
-    // First rows at or after them (the values lie in [r0 + 1, r1 + 1]).
-    const int i_in = static_cast<int>(row_in[k]), i_out = static_cast<int>(row_out[k]);
-    const int in = i_in + (i_in < row_in[k]), out = i_out + (i_out < row_out[k]);
-    if (out > in && n + (out - in) + 1 > ev.size())
-    {
-      ev.resize(2 * (n + (out - in) + 1));
-      buf = ev.data();
-    }
-    for (int r = in; r < out; ++r)
-      add(r, kExactKey);  // between the margins: too close to call
-    if (out <= r1)
-      add(out, j - (d < 0));  // past j +- delta: the key after j
-  }
-  *t.n = n;
-}
-
 // Sorts the scheduled events by row (stable), rows r0 + 1 .. r1; count[r] becomes the first event of row r.
-void sortEvents(const EdgeTrack& t, int r0, int r1)
-{
-  int sum = 0;
-  for (int r = r0 + 1; r <= r1 + 1; ++r)
-  {
-    const int n = t.count[r];
-    t.count[r] = sum;
-    sum += n;
-  }
-  const std::size_t n = *t.n;
-  if (t.sorted->size() < n)
-    t.sorted->resize(t.events->size());
-  KeyEvent* out = t.sorted->data();
-  const KeyEvent* in = t.events->data();
-  for (std::size_t i = 0; i < n; ++i)
-    out[t.count[in[i].row]++] = in[i];
-  // count[r] is now where row r + 1 starts: shift back.
-  for (int r = r1 + 1; r > r0 + 1; --r)
-    t.count[r] = t.count[r - 1];
-  t.count[r0 + 1] = 0;
-}
-
 // Puts column u's nearest range into its bins (the keys of its edges; bins valid from -1 to beams) and restarts
 // it. Up to 3 bins without a branch, all loads before the stores (no store-to-load chain within).
-inline void flushColumn(const EdgeTrack& t, int u, float* bins)
-{
-  const float v = t.acc[u];
-  const int k0 = t.key[u], k1 = t.key[u + 1];
-  const int lo = k0 < k1 ? k0 : k1, hi = k0 < k1 ? k1 : k0;
-  const int mid = lo + (hi > lo);
-  const float b_lo = bins[lo], b_mid = bins[mid], b_hi = bins[hi];
-  bins[lo] = v < b_lo ? v : b_lo;
-  bins[mid] = v < b_mid ? v : b_mid;
-  bins[hi] = v < b_hi ? v : b_hi;
-  for (int k = lo + 2; k < hi; ++k)
-    bins[k] = v < bins[k] ? v : bins[k];
-  t.acc[u] = kInf;
-}
-
 // acc[u] = min(acc[u], range of pixel u of row r) for u in [a, b], the same arithmetic as spanRanges.
 template <typename T>
 void accumulateRow(const T* __restrict dst, int a, int b, float scale, const float* __restrict xn, float ax,
@@ -1080,65 +873,19 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       values[v] = static_cast<std::uint8_t>(v);
     proof.build(lut.table().data(), scale, floor_h, ceil_h);
   }
-  // Rows [coh_lo, coh_hi] are binned coherently (see ScanGeometry): every edge ray of them points forward.
+  // The projector's row terms, for the coverage of this pose below.
   ScanGeometry geo{};
-  int coh_lo = 0, coh_hi = -1;
   if (!column)
   {
     const ScanProjector& p = projector_;
     geo.xe = p.xe_.data();
-    geo.xn = p.xn_.data();
     geo.bx = p.bx_.data();
     geo.by = p.by_.data();
     geo.ax = p.ax_;
     geo.ay = p.ay_;
     geo.lo = p.lo_;
     geo.inv = 1.0f / p.inc_;
-    geo.beams = beams;
-    geo.cy = p.cy_;
-    geo.fy = p.fy_;
-    geo.cp = p.cp_;
-    geo.sp_cr = p.sp_ * p.cr_;
-    geo.sr = p.sr_;
-    geo.bc = p.bound_cos_.data();
-    geo.bs = p.bound_sin_.data();
-    constexpr float kMinX = 0.05f;
-    const float x0 = p.xe_.front(), xw = p.xe_.back();
-    double x_min = std::numeric_limits<double>::infinity(), b_max = 0.0, y_max = 0.0;
-    int first = -1, last = -1, n_ok = 0;
-    for (int r = 0; r < h; ++r)
-    {
-      const float xa = geo.ax * x0 + geo.bx[r], xb = geo.ax * xw + geo.bx[r];
-      if (!(xa >= kMinX && xb >= kMinX))
-        continue;
-      first = first < 0 ? r : first;
-      last = r;
-      ++n_ok;
-      x_min = std::min(x_min, static_cast<double>(std::min(xa, xb)));
-      b_max = std::max(b_max, std::fabs(static_cast<double>(geo.bx[r])) + std::fabs(geo.by[r]));
-      y_max = std::max(y_max, std::fabs(static_cast<double>(p.yn_[r])));
-    }
-    // Margin [bins] over the error of the float bin position, with a quarter to spare: fastAtan2 (max 1.98e-6
-    // rad measured over its range), the rounding of the ray's terms (relative to its length >= x_min) and of
-    // (angle - lo) * inv.
-    const double u = 1.0 / 16777216.0, inv = geo.inv;
-    const double xm = std::max(std::fabs(x0), std::fabs(xw));
-    const double ray = u * (2.0 + ((std::fabs(geo.ax) + std::fabs(geo.ay)) * xm + b_max + 2.0 * y_max) / x_min);
-    geo.delta = 1.25 * (2.1e-6 + ray + 2.0 * u * (1.5708 + std::fabs(geo.lo))) * inv;
-    geo.cd = std::cos(geo.delta / inv);
-    geo.sd = std::sin(geo.delta / inv);
-    // Side tests need every boundary within a quarter turn of forward.
-    const bool fits = geo.lo >= -1.5707 && geo.lo + beams / inv <= 1.5707;
-    const bool small = h <= 65536 && w < 65536;  // KeyEvent
-    if (n_ok > 0 && n_ok == last - first + 1 && geo.delta < 0.2 && fits && small)
-    {
-      coh_lo = first;
-      coh_hi = last;
-    }
-    crossings_.resize(8 * static_cast<std::size_t>(beams + 1));
-    geo.cross = crossings_.data();
   }
-  double* crossings = crossings_.data();
 
   int team = 1;  // threads OpenMP actually gave: only their scratch holds this frame's bins
   Clock::time_point t2 = t1;
@@ -1165,7 +912,6 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     float* range = s.range.data();
     float* fb = s.edges.data();
     float* bins = s.bins.data() + 1;  // bins[-1] and bins[beams] take what lies outside the scan
-    const BinScratch bs{s.key.data(), s.xs.data(), s.v.data(), s.v2.data(), s.rb.data()};
     if (column)
       std::fill(s.colmin.begin(), s.colmin.end(), kInf);
     if (!column)
@@ -1182,15 +928,6 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           s.cov_lo = std::min(s.cov_lo, f);
           s.cov_hi = std::max(s.cov_hi, f);
         }
-      }
-    }
-    if (coh_lo <= coh_hi)
-    {
-#pragma omp for schedule(static) nowait
-      for (int j = 0; j <= beams; ++j)
-      {
-        geo.crossing(j, -1, crossings);
-        geo.crossing(j, +1, crossings);
       }
     }
 
@@ -1239,6 +976,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         thresholdRow<T>(src, lut, scale, w, s.t.data());
         c = classifyRow<T>(src, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst);
       }
+      if (rad > 0)
+        rescueByRaw<T>(depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, c);
       s.counts[kKept] += c.kept;
       s.counts[kInvalid] += c.invalid;
       s.counts[kFloor] += c.floor;
@@ -1264,82 +1003,29 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 
     if (column)
     {
-      const float* cfb = projector_.rowEdgeBins(0, fb);
-      projector_.rowRanges(0, s.colmin.data(), range);
-      if (!binRowMonotone(cfb, range, 0, w - 1, beams, half_turn_bins, bs, bins))
-        binRow(cfb, range, w, beams, half_turn_bins, bins);
+      // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
+      projector_.centreBins(0, 0, w - 1, fb);
+      projector_.spanRanges(0, 0, w - 1, s.colmin.data(), range);
+      binCentres(fb, range, 0, w - 1, beams, half_turn_bins, bins);
     }
     else
     {
-      // Column chunks [c0, c1) and their edges [c0, c1], every row; a few chunks per thread, scheduled
-      // dynamically so that a thread held up elsewhere costs little.
-      const int chunks = team == 1 ? 1 : std::min(w, 4 * team);
-#pragma omp for schedule(dynamic, 1)
-      for (int chunk = 0; chunk < chunks; ++chunk)
+#pragma omp for schedule(dynamic, 8)
+      for (int r = 0; r < h; ++r)
       {
-        const int c0 = static_cast<int>(static_cast<long>(w) * chunk / chunks);
-        const int c1 = static_cast<int>(static_cast<long>(w) * (chunk + 1) / chunks);
-        std::size_t n_events = 0;
-        const EdgeTrack trk{s.tkey.data() + 1, s.acc.data() + 1, s.tcount.data(), &s.events, &s.sorted, &n_events,
-                            s.row_in.data(), s.row_out.data(), s.valid.data()};
-        // The last row of the chunk binned coherently.
-        int r_end = -1;
-        for (int r = std::min(coh_hi, h - 1); r >= coh_lo && r_end < 0; --r)
-          if (std::max(spans_[2 * r], c0) <= std::min(spans_[2 * r + 1], c1 - 1))
-            r_end = r;
-        bool started = false;
-        int last = -1;
-        for (int r = 0; r < h && c0 < c1; ++r)
-        {
-          const int a = std::max(spans_[2 * r], c0), b = std::min(spans_[2 * r + 1], c1 - 1);
-          if (a > b)
-            continue;
-          const T* dst = out.depth.ptr<T>(r);
-          if (r < coh_lo || r > coh_hi)
-          {
-            keptDepth<T>(dst, a, b, scale, z);
-            projector_.edgeBins(r, a, b + 1, fb);
-            projector_.spanRanges(r, a, b, z, range);
-            if (!binRowMonotone(fb, range, a, b, beams, half_turn_bins, bs, bins))
-              binRow(fb + a, range + a, b - a + 1, beams, half_turn_bins, bins);
-            continue;
-          }
-          if (!started)
-          {
-            // The keys in this row, and every key change up to row r_end.
-            started = true;
-            std::fill(trk.count + r, trk.count + r_end + 2, 0);
-            std::fill(trk.acc - 1, trk.acc + w + 1, kInf);
-            std::fill(trk.key - 1, trk.key + w + 2, -1);
-            projector_.edgeBins(r, c0, c1, fb);
-            projector_.edgeBins(r_end, c0, c1, s.fb1.data());
-            for (int e = c0; e <= c1; ++e)
-            {
-              trk.key[e] = geo.clampKey(fb[e]);
-              scheduleEdge(geo, trk, e, r, r_end, fb[e], s.fb1[e]);
-            }
-            sortEvents(trk, r, r_end);
-          }
-          else
-          {
-            // The key changes since the last row binned, in order.
-            const KeyEvent* ev = s.sorted.data();
-            for (int i = trk.count[last + 1], n = trk.count[r + 1]; i < n; ++i)
-            {
-              // The columns beside the edge change bins: flush them with the old key first.
-              const int e = ev[i].edge;
-              const int k = ev[i].key == kExactKey ? geo.exactKey(e, r) : ev[i].key;
-              flushColumn(trk, e - 1, bins);
-              flushColumn(trk, e, bins);
-              trk.key[e] = k;
-            }
-          }
-          last = r;
-          accumulateRow<T>(dst, a, b, scale, geo.xn, geo.ax, geo.ay, geo.bx[r], geo.by[r], trk.acc);
-        }
-        if (started)
-          for (int u = c0; u < c1; ++u)
-            flushColumn(trk, u, bins);
+        const int a = spans_[2 * r], b = spans_[2 * r + 1];
+        if (a > b)
+          continue;
+        keptDepth<T>(out.depth.ptr<T>(r), a, b, scale, z);
+        // One pixel either side as well: a gap between the span's end and its neighbour is split between them.
+        const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
+        for (int u = a1; u < a; ++u)
+          z[u] = kInf;
+        for (int u = b + 1; u <= b1; ++u)
+          z[u] = kInf;
+        projector_.centreBins(r, a1, b1, fb);
+        projector_.spanRanges(r, a1, b1, z, range);
+        binCentres(fb, range, a1, b1, beams, half_turn_bins, bins);
       }
     }
   }

@@ -47,10 +47,12 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   col_factor_.resize(width_);
   for (int e = 0; e <= width_; ++e)
     col_edge_bins_[e] = static_cast<float>((edge_angle[e] - lo) / inc);
+  col_centre_bins_.resize(width_);
   for (int u = 0; u < width_; ++u)
   {
-    const double theta_x = thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan(xn_[u]);
+    const double theta_x = thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan((u - camera.cx) / camera.fx);
     col_factor_[u] = static_cast<float>(1.0 / std::cos(theta_x));
+    col_centre_bins_[u] = static_cast<float>((-theta_x - lo) / inc);
   }
   bx_.assign(height_, 1.0f);
   by_.assign(height_, 0.0f);
@@ -125,6 +127,16 @@ void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restric
 void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
 {
   edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
+}
+
+void ScanProjector::centreBins(int r, int u0, int u1, float* out) const
+{
+  if (projection_ == Projection::kColumn)
+  {
+    std::copy(col_centre_bins_.begin() + u0, col_centre_bins_.begin() + u1 + 1, out + u0);
+    return;
+  }
+  edgeBinLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
 }
 
 void ScanProjector::rowRanges(int r, const float* depth, float* range) const
