@@ -14,6 +14,18 @@ class ToolError(Exception):
     """A known failure: printed as one line, exit status 1."""
 
 
+def parse_params(items: list[str] | None) -> dict[str, object]:
+    """``NAME=VALUE`` options as Config fields: JSON values (numbers, true/false, quoted strings) or plain text."""
+    out: dict[str, object] = {}
+    for item in items or []:
+        key, _, value = item.partition("=")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
 def _bench_binary() -> Path:
     from . import _core
 
@@ -75,13 +87,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 def cmd_replay(args: argparse.Namespace) -> int:
     from .replay import ReplayError, ReplayOptions, format_report, replay
 
-    config: dict[str, object] = {}
-    for item in args.param or []:
-        key, _, value = item.partition("=")
-        try:
-            config[key] = json.loads(value)
-        except json.JSONDecodeError:
-            config[key] = value
+    config = parse_params(args.param)
     opts = ReplayOptions(
         depth_topic=args.depth_topic,
         info_topic=args.info_topic,
@@ -147,13 +153,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 def cmd_regress(args: argparse.Namespace) -> int:
     from .regress import regress
 
-    override: dict[str, object] = {}
-    for item in args.param or []:
-        key, _, value = item.partition("=")
-        try:
-            override[key] = json.loads(value)
-        except json.JSONDecodeError:
-            override[key] = value
+    override = parse_params(args.param)
     lines, problems = regress(update=args.update, config_override=override)
     print("\n".join(lines))
     for p in problems:

@@ -145,6 +145,25 @@ def _typestore() -> Any:
     return ts()
 
 
+def open_bag(path: Path) -> Any:
+    """A rosbags reader, opened; a file that is no readable ROS 1 bag raises ReplayError naming it."""
+    from rosbags.rosbag1 import Reader, ReaderError
+
+    try:
+        reader = Reader(path)
+        reader.open()
+    except (ReaderError, OSError) as exc:
+        raise ReplayError(f"{path}: not a readable ROS 1 bag ({exc})") from exc
+    return reader
+
+
+def camera_from_info(info: Any) -> _core.Camera:
+    """The core's camera model of a CameraInfo message (K: fx, fy, cx, cy)."""
+    return _core.Camera(
+        int(info.width), int(info.height), float(info.K[0]), float(info.K[4]), float(info.K[2]), float(info.K[5])
+    )
+
+
 def _pick_topics(connections: list[Any], opts: ReplayOptions) -> tuple[str, str]:
     images = sorted({c.topic for c in connections if c.msgtype == "sensor_msgs/msg/Image"})
     infos = {c.topic for c in connections if c.msgtype == "sensor_msgs/msg/CameraInfo"}
@@ -169,7 +188,7 @@ def _pick_topics(connections: list[Any], opts: ReplayOptions) -> tuple[str, str]
 
 def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progress: bool = True) -> ReplayReport:
     """Replays ``inp`` into a new bag ``out`` (never the input; written to a temporary file, then renamed)."""
-    from rosbags.rosbag1 import Reader, ReaderError, Writer
+    from rosbags.rosbag1 import Writer
 
     opts = opts or ReplayOptions()
     inp, out = Path(inp), Path(out)
@@ -184,11 +203,7 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
     report = ReplayReport()
     tmp = out.with_name(f".{out.name}.partial-{os.getpid()}")
     started = time.monotonic()
-    try:
-        reader = Reader(inp)
-        reader.open()
-    except (ReaderError, OSError) as exc:
-        raise ReplayError(f"{inp}: not a readable ROS 1 bag ({exc})") from exc
+    reader = open_bag(inp)
     try:
         depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
         ns = depth_topic.rsplit("/", 2)[0] if depth_topic.count("/") >= 2 else ""
@@ -239,14 +254,7 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
                 if info is None:
                     report.problems.append(f"{depth_topic} at {stamp:.3f} s: no camera_info yet; frame skipped")
                     continue
-                cam = _core.Camera(
-                    int(info.width),
-                    int(info.height),
-                    float(info.K[0]),
-                    float(info.K[4]),
-                    float(info.K[2]),
-                    float(info.K[5]),
-                )
+                cam = camera_from_info(info)
                 if pipe is None or repr(cam) != repr(camera):
                     pipe, camera = _core.Pipeline(cam, config), cam
                 try:

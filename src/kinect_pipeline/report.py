@@ -20,7 +20,17 @@ import numpy as np
 
 from . import _core
 from .demo import _save_atomic, progress, to_metres
-from .replay import ReplayError, ReplayOptions, TfBuffer, _pick_topics, _stamp, _typestore, image_to_array
+from .replay import (
+    ReplayError,
+    ReplayOptions,
+    TfBuffer,
+    _pick_topics,
+    _stamp,
+    _typestore,
+    camera_from_info,
+    image_to_array,
+    open_bag,
+)
 
 
 @dataclass
@@ -50,15 +60,9 @@ class Collected:
 
 def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_labels: bool = False) -> Collected:
     """Runs two pipelines over the bag: the configured one, and the same with the intensity filter on."""
-    from rosbags.rosbag1 import Reader, ReaderError
-
     ts = _typestore()
     out = Collected()
-    try:
-        reader = Reader(bag)
-        reader.open()
-    except (ReaderError, OSError) as exc:
-        raise ReplayError(f"{bag}: not a readable ROS 1 bag ({exc})") from exc
+    reader = open_bag(bag)
     try:
         depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
         tf = TfBuffer()
@@ -103,14 +107,7 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
                 continue
             if bar is not None:
                 next(bar, None)
-            cam = _core.Camera(
-                int(info.width),
-                int(info.height),
-                float(info.K[0]),
-                float(info.K[4]),
-                float(info.K[2]),
-                float(info.K[5]),
-            )
+            cam = camera_from_info(info)
             if pipe is None:
                 pipe = _core.Pipeline(cam, _core.Config(**config))
                 pipe_f = _core.Pipeline(cam, _core.Config(**{**config, "intensity_filter": True}))

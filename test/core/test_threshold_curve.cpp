@@ -3,23 +3,12 @@
 #include <algorithm>
 
 #include "kinect_pipeline/threshold_curve.h"
+#include "test_util.h"
+
+using kp_test::slowCurve;
 
 using namespace kinect_pipeline;
 
-namespace
-{
-// Reference: linear interpolation written out, flat outside.
-double slowCurve(const std::vector<CurvePoint>& c, double d)
-{
-  if (d <= c.front().depth)
-    return c.front().threshold;
-  for (std::size_t i = 1; i < c.size(); ++i)
-    if (d <= c[i].depth)
-      return c[i - 1].threshold +
-             (c[i].threshold - c[i - 1].threshold) * (d - c[i - 1].depth) / (c[i].depth - c[i - 1].depth);
-  return c.back().threshold;
-}
-}  // namespace
 
 TEST(ThresholdCurve, InterpolatesLikeTheReference)
 {

@@ -4,7 +4,10 @@
 #include <cmath>
 #include <limits>
 
+#include <vector>
+
 #include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/config.h"
 
 namespace kp_test
 {
@@ -38,5 +41,16 @@ inline double planeDepth(const kinect_pipeline::Camera& c, int u, int v, double 
   const V3 d = rayWorld(c, u, v, pitch, roll);
   const double t = (plane_z - h) / d.z;
   return (d.z != 0.0 && t > 0.0) ? t : kInf;
+}
+/** Reference t(d): linear interpolation of the control points written out, flat outside. */
+inline double slowCurve(const std::vector<kinect_pipeline::CurvePoint>& c, double d)
+{
+  if (d <= c.front().depth)
+    return c.front().threshold;
+  for (std::size_t i = 1; i < c.size(); ++i)
+    if (d <= c[i].depth)
+      return c[i - 1].threshold +
+             (c[i].threshold - c[i - 1].threshold) * (d - c[i - 1].depth) / (c[i].depth - c[i - 1].depth);
+  return c.back().threshold;
 }
 }  // namespace kp_test
