@@ -126,7 +126,6 @@ private:
   bool lut_valid_ = false;
   cv::Mat eroded_, mapped_, opened_;
   std::vector<std::int32_t> spans_;  ///< first and last kept column of each row (first > last: none)
-  std::vector<double> crossings_;    ///< per bin boundary, where the edge rays cross it (coherent binning)
   std::vector<std::unique_ptr<Scratch>> scratch_;
 };
 

@@ -48,9 +48,9 @@ inline float fastAtan2(float y, float x)
 }
 
 /**
- * Maps pixels to beams. A pixel is a small patch, not a point: it covers the angles between its left and
- * right edges, and its range goes into every bin it overlaps, so a surface that covers neighbouring pixels
- * covers neighbouring bins and the binning leaves no bin empty, whatever the pitch.
+ * Maps pixels to beams: a pixel goes to the bin of its centre's bearing (centreBins()); the pipeline gives the
+ * bins between two neighbouring centres of a row to the nearer one, so the binning leaves no bin empty that a
+ * surface covers, whatever the pitch. The column edges' bearings (rowEdgeBins()) bound what the image sees.
  *
  * Horizontal projection: the ray of pixel (u, r) in the gravity-aligned frame is
  * (X, Y) = (ax * xn + bx(r), ay * xn + by(r)) per metre of depth; its beam angle is atan2(Y, X) and its range
@@ -112,11 +112,6 @@ private:
   std::vector<float> col_edge_bins_, col_centre_bins_, col_factor_;  // column projection
   float ax_ = 0.0f, ay_ = 0.0f;
   std::vector<float> bx_, by_;                    // horizontal projection, per row
-  double cy_ = 0.0, fy_ = 1.0;                        ///< row r has yn = (r - cy) / fy
-  double sp_ = 0.0, cp_ = 1.0, sr_ = 0.0, cr_ = 1.0;  ///< sin, cos of the pose's pitch and roll
-  /// Direction (cos, sin) of bin boundary j = 0..beams: angle lo + j / inv with the float inv = 1 / inc of the
-  /// bin positions, where their exact value is j.
-  std::vector<double> bound_cos_, bound_sin_;
 };
 
 /**

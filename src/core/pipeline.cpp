@@ -478,186 +478,12 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
   }
 }
 
-// ---- Fast path of binRow for rows whose edge bins are monotone (nearly all of them) ----
-
-constexpr int kMaxRunSteps = 5;  // at most 2^5 edges in one bin, else binRow
-constexpr int kPad = 1 << kMaxRunSteps;  // scratch past the last edge that runMinStep reads
-
-struct Widths
-{
-  int neg = 0, pos = 0;
-  std::int32_t amin = 0x7fffffff, amax = 0;  // bits of the narrowest and widest |fb[u + 1] - fb[u]|
-};
-
-// Signs and extremes of the pixel widths in bins (float bits of non-negative floats order like the floats).
-// key = floor(fb) clamped to [-1, beams] (the ends collect everything outside the scan), in key order.
-template <bool kReverse>
-void edgeKeys(const float* __restrict fb, int n, float beams, std::int32_t* __restrict key)
-{
-  for (int i = 0; i < n; ++i)
-  {
-    float f = fb[kReverse ? n - 1 - i : i];
-    f = f < -1.0f ? -1.0f : f;
-    f = f > beams ? beams : f;
-    const int k = static_cast<int>(f);
-    key[i] = k - (f < static_cast<float>(k));
-  }
-}
-
-// xs[i + 1] = range of pixel i in key order, +Inf for NaN (a removed pixel whose range factor is 0: binRow skips
-// it); the ends are +Inf.
-template <bool kReverse>
-void pixelRanges(const float* __restrict range, int n, float* __restrict xs)
-{
-  xs[0] = kInf;
-  for (int i = 0; i < n; ++i)
-  {
-    const float r = range[kReverse ? n - 1 - i : i];
-    xs[i + 1] = r < kInf ? r : kInf;
-  }
-  xs[n + 1] = kInf;
-}
-
-// v[i] = the nearer of the two pixels beside edge i.
-// One doubling step of a segmented minimum: dst[i] = min of src over the edges i .. i + s with key[i].
-struct BinScratch
-{
-  std::int32_t* key;
-  float *xs, *v, *v2, *rb;
-};
-
-// ---- Row-coherent binning of the horizontal projection ----
-//
-// Along a column edge the bin position changes slowly and monotonically from row to row (the edge's ray moves
-// along a straight line in the horizontal plane as the row changes), so each edge's bin (key) is known for a
-// whole block of rows from where it crosses the bin boundaries: in double precision, the rows where the true
-// bin position passes j - delta and j + delta (delta [bins] larger than the error of the float bin position)
-// decide the key, and where a row falls between the two, the float arithmetic of edgeBins does. Each column
-// keeps the nearest range of its kept pixels since its bins last changed and puts it into those bins only when
-// they change: per pixel a min, per key change a few bins.
-
-/** The horizontal projection's terms (the projector's, plus the pose in double). */
+/** The projector's terms of the horizontal projection, for the coverage of a pose. */
 struct ScanGeometry
 {
-  const float *xe, *xn, *bx, *by;
+  const float *xe, *bx, *by;
   float ax, ay, lo, inv;
-  int beams;
-  double cy, fy, cp, sp_cr, sr;  // row r: y = (r - cy) / fy; edge ray (ax xe + cp - sp_cr y, ay xe + sr y)
-  const double *bc, *bs;         // direction of bin boundary j (where the true bin position is j)
-  double cd, sd, delta;          // cos, sin of the margin as an angle; the margin [bins]
-  // For boundary j + sgn * delta, arrays (k (2 (beams + 1)) + (sgn > 0) (beams + 1) + j) p, q, a, b (k = 0..3):
-  // the row where an edge ray at xe points along it is xe p + q where xe a + b > 0, else never.
-  const double* cross;
-  const double* table(int k, int sgn) const { return cross + (2 * k + (sgn > 0)) * (beams + 1); }
-
-  // Direction of boundary j + sgn * delta.
-  void direction(int j, int sgn, double& c, double& s) const
-  {
-    c = bc[j] * cd - sgn * bs[j] * sd;
-    s = bs[j] * cd + sgn * bc[j] * sd;
-  }
-  void crossing(int j, int sgn, double* out) const
-  {
-    double c, s;
-    direction(j, sgn, c, s);
-    const double den = c * sr + s * sp_cr;
-    double* const o = out + (sgn > 0) * (beams + 1) + j;
-    const std::size_t k = 2 * static_cast<std::size_t>(beams + 1);
-    if (den == 0.0)
-    {
-      o[0] = o[k] = o[2 * k] = 0.0;  // parallel to the ray's path: never crossed
-      o[3 * k] = -1.0;
-      return;
-    }
-    const double p = (s * ax - c * ay) / den, q = s * cp / den;
-    o[0] = fy * p;
-    o[k] = cy + fy * q;
-    o[2 * k] = ax - sp_cr * p;
-    o[3 * k] = cp - sp_cr * q;
-  }
-  // |ray| sin(ray angle - angle of boundary j + sgn * delta): > 0 beyond it (towards higher bins).
-  double side(int e, int r, int j, int sgn) const
-  {
-    double c, s;
-    direction(j, sgn, c, s);
-    const double x = xe[e], y = (r - cy) / fy;
-    return c * (ay * x + sr * y) - s * (ax * x + cp - sp_cr * y);
-  }
-  /**
-   * Row from which edge e is past boundary j + sgn * delta in its direction d of motion: the crossing row, or
-   * -Inf if it is past it in row r for good, +Inf if it never gets there (boundaries crossed only where the ray's
-   * x <= 0 never are, in rows with x > 0).
-   */
-  double rowPast(int e, int r, int j, int sgn, int d) const
-  {
-    const double x = xe[e];
-    if (x * table(2, sgn)[j] + table(3, sgn)[j] > 0.0)
-      return x * table(0, sgn)[j] + table(1, sgn)[j];
-    const double sd_ = side(e, r, j, sgn);
-    return (d > 0 ? sd_ > 0.0 : sd_ < 0.0) ? -std::numeric_limits<double>::infinity()
-                                           : std::numeric_limits<double>::infinity();
-  }
-  // The key of edge e in row r exactly as edgeBins + edgeKeys compute it.
-  int exactKey(int e, int r) const
-  {
-    const float f = (fastAtan2(ay * xe[e] + by[r], ax * xe[e] + bx[r]) - lo) * inv;
-    return clampKey(f);
-  }
-  int clampKey(double f) const
-  {
-    f = f < -1.0 ? -1.0 : (f > beams ? beams : f);
-    return static_cast<int>(std::floor(f));
-  }
 };
-
-/** A key change of an edge at a row: the new key, or kExactKey: compute it then. */
-struct KeyEvent
-{
-  std::uint16_t row, edge;  // coherent binning needs h, w + 1 <= 65536
-  std::int32_t key;
-};
-constexpr std::int32_t kExactKey = std::numeric_limits<std::int32_t>::min();
-
-/**
- * Per-thread state of the coherent binning. key and acc are valid from index -1 (key to w + 1, acc to w) so that
- * the columns beside a thread's edges flush without checks: their acc stays +Inf, their keys -1.
- */
-struct EdgeTrack
-{
-  std::int32_t* key;
-  float* acc;
-  std::int32_t* count;            // events per row, then (counting sort) where each row's events start
-  std::vector<KeyEvent>* events;  // as scheduled: the first n (the vector only grows)
-  std::vector<KeyEvent>* sorted;  // by row, in schedule order within a row
-  std::size_t* n;
-  double *row_in, *row_out, *valid;  // scheduleEdge, per boundary
-};
-
-// row_in[i], row_out[i]: x p + q for the two shifted boundaries, clamped to [lo, end] (NaN: lo and end); valid[i]:
-// > 0 if both crossings lie where the ray's x > 0 (x a + b > 0).
-// Sorts the scheduled events by row (stable), rows r0 + 1 .. r1; count[r] becomes the first event of row r.
-// Puts column u's nearest range into its bins (the keys of its edges; bins valid from -1 to beams) and restarts
-// it. Up to 3 bins without a branch, all loads before the stores (no store-to-load chain within).
-// acc[u] = min(acc[u], range of pixel u of row r) for u in [a, b], the same arithmetic as spanRanges.
-template <typename T>
-void accumulateRow(const T* __restrict dst, int a, int b, float scale, const float* __restrict xn, float ax,
-                   float ay, float bx, float by, float* __restrict acc)
-{
-  const T removed = DepthTraits<T>::removed();
-  for (int u = a; u <= b; ++u)
-  {
-    const T v = dst[u];
-    bool gone;
-    if constexpr (std::is_floating_point_v<T>)
-      gone = v != v;
-    else
-      gone = v == removed;
-    const float z = gone ? kInf : static_cast<float>(v) * scale;
-    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-    const float range = z * std::sqrt(x * x + y * y);
-    acc[u] = range < acc[u] ? range : acc[u];
-  }
-}
 }  // namespace
 
 /** Per-thread buffers, sized once per image size / beam count: no allocation per frame. */
@@ -668,17 +494,11 @@ struct Pipeline::Scratch
   std::vector<float> z;          // depth of kept pixels of the row [m], +Inf for removed ones
   std::vector<float> range;      // beam range of each pixel of the row [m], +Inf for removed ones
   std::vector<float> colmin;     // column projection: nearest kept depth per column [m]
-  std::vector<float> edges;      // bin positions of the row's column edges
-  std::vector<float> bins;       // nearest range per beam seen by this thread
-  std::vector<std::int32_t> key;  // binRowMonotone: edge keys (+ kPad)
-  std::vector<float> xs, v, v2;  // binRowMonotone: pixel ranges, edge minima (+ kPad)
-  std::vector<float> rb;         // binRowMonotone: the row's bins (beams + 3)
+  std::vector<float> edges;      // bin positions of the row's pixel centres
+  std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
+  std::vector<std::int32_t> key;  // bin of each pixel centre of the row
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
   ValueSplit guess;                      // the last row's value thresholds
-  std::vector<std::int32_t> tkey, tcount;   // EdgeTrack
-  std::vector<float> acc, fb1;               // EdgeTrack: per column; bin positions of the last row
-  std::vector<KeyEvent> events, sorted;      // EdgeTrack (their capacity persists)
-  std::vector<double> row_in, row_out, valid;  // EdgeTrack: per boundary
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
   std::array<std::uint64_t, kNumLabels> counts{};
 };
@@ -734,22 +554,10 @@ void Pipeline::prepareBuffers(int threads)
     s.range.resize(w);
     s.colmin.resize(w);
     s.edges.resize(w + 1);
-    s.bins.resize(beams + 2);  // from beam -1 to beams: the coherent flush writes there too
-    s.key.resize(w + 2 + kPad);
-    s.xs.resize(w + 2);
-    // runMinStep reads past the last edge (whose sentinel keys never match there).
-    s.v.resize(w + 2 + kPad);
-    s.v2.resize(w + 2 + kPad);
-    s.rb.resize(beams + 3);
+    s.bins.resize(beams + 2);  // from beam -1 to beams: what lies outside the scan goes to the ends
+    s.key.resize(w);
     s.vlab.resize(256);
     s.vdst.resize(256);
-    s.tkey.resize(w + 3);  // from edge -1 to w + 1
-    s.tcount.resize(camera_.height + 2);
-    s.acc.resize(w + 2);  // from column -1 to w
-    s.fb1.resize(w + 1);
-    s.row_in.resize(beams + 1);
-    s.row_out.resize(beams + 1);
-    s.valid.resize(beams + 1);
   }
   spans_.resize(2 * static_cast<std::size_t>(camera_.height));
 }

@@ -56,18 +56,6 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   }
   bx_.assign(height_, 1.0f);
   by_.assign(height_, 0.0f);
-  cy_ = camera.cy;
-  fy_ = camera.fy;
-  // Where the float bin position (theta - lo) * inv crosses j in exact arithmetic.
-  const double inv = 1.0f / inc_;
-  bound_cos_.resize(beams_ + 1);
-  bound_sin_.resize(beams_ + 1);
-  for (int j = 0; j <= beams_; ++j)
-  {
-    const double phi = static_cast<double>(lo_) + j / inv;
-    bound_cos_[j] = std::cos(phi);
-    bound_sin_[j] = std::sin(phi);
-  }
 }
 
 void ScanProjector::setPose(double pitch, double roll)
@@ -76,10 +64,6 @@ void ScanProjector::setPose(double pitch, double roll)
     return;
   // The ray (1, -xn, -yn) of the sensor frame rotated by roll about x, then pitch about y (see PlaneModel).
   const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-  sp_ = sp;
-  cp_ = cp;
-  sr_ = sr;
-  cr_ = cr;
   ax_ = static_cast<float>(-sp * sr);
   ay_ = static_cast<float>(-cr);
   for (int r = 0; r < height_; ++r)
