@@ -69,15 +69,15 @@ def _save_atomic(fig: Any, path: Path) -> None:
             os.unlink(tmp)
 
 
-def plot_frame(frame: Frame, res: _core.Result, max_depth: float, path: Path, title: str) -> None:
-    """Raw depth, cleaned depth and labels side by side (thesis figs 4.11, 4.17a/b)."""
+def plot_frame(depth: np.ndarray, res: _core.Result, max_depth: float, path: Path, title: str) -> None:
+    """Raw depth (the encoded input), cleaned depth and labels side by side (thesis figs 4.11, 4.17a/b)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
-    raw = to_metres(frame.depth, max_depth)
+    raw = to_metres(depth, max_depth)
     clean = to_metres(res.depth, max_depth)
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.6))
     for a, img, name in ((ax[0], raw, "raw depth"), (ax[1], clean, "cleaned depth (for the human detector)")):
@@ -186,7 +186,7 @@ def run_demo(
     assert worst is not None
     _, wi, wframe, wres = worst
     title = f"frame {wi}: base pitch {math.degrees(motion.pitch(wi)):+.1f} deg, {encoding}"
-    plot_frame(wframe, wres, cfg.max_depth, out / "frame.png", title)
+    plot_frame(wframe.depth, wres, cfg.max_depth, out / "frame.png", title)
     plot_scan(wframe, wres, out / "scan.png", title)
 
     def agg(name: str, fn: Any) -> float:

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .demo import _save_atomic, progress, to_metres
+from .demo import _save_atomic, plot_frame, progress
 from .replay import (
     ReplayError,
     ReplayOptions,
@@ -184,20 +184,7 @@ def write_report(
     pictures: list[tuple[str, str]] = []
 
     # 1. Raw, cleaned and labelled depth.
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.4))
-    for a, img, title in (
-        (ax[0], to_metres(depth, max_depth), "raw depth"),
-        (ax[1], to_metres(res.depth, max_depth), "cleaned depth"),
-    ):
-        im = a.imshow(img, cmap="viridis", vmin=0, vmax=min(max_depth, 8.0))
-        a.set_title(title)
-        a.axis("off")
-    fig.colorbar(im, ax=ax[:2].tolist(), shrink=0.8, label="depth [m]")
-    ax[2].imshow(_core.colour_labels(res.depth, res.labels, max_depth))
-    ax[2].set_title("labels: green floor, blue above ceiling plane, magenta below floor, black invalid")
-    ax[2].axis("off")
-    _save_atomic(fig, out_dir / "frame.png")
-    plt.close(fig)
+    plot_frame(depth, res, max_depth, out_dir / "frame.png", "frame with the largest pitch")
     pictures.append(("frame.png", "Raw, cleaned and labelled depth of the frame with the largest pitch"))
 
     # 2. The Kinect scan over the LiDAR scan, robot frame, 1 m grid.
