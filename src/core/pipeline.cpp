@@ -98,9 +98,9 @@ RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const 
 }
 
 /**
- * The opening can only move a depth nearer (a max of mins). Where it moved a pixel that the raw depth shows on the
- * floor or beyond the ceiling plane (at the corner of an object, or far down the floor where a row spans
- * metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not a new obstacle.
+ * The opening can only move a depth nearer (a max of mins). Where it moved a pixel by more than t(d) and the raw
+ * depth shows it on the floor or beyond the ceiling plane (at the corner of an object, or far down the floor where
+ * a row spans metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not an obstacle.
  * @param in the input row (unmapped), @param src the opened row
  */
 template <typename T>
@@ -122,6 +122,9 @@ void rescueByRaw(const T* __restrict in, const T* __restrict src, const Threshol
       t = lut.forValue(raw);
     else
       t = lut.forDepth(d);
+    // Only where the opening moved the pixel by more than the noise band: not the noise of a low obstacle.
+    if (!(d - static_cast<float>(src[u]) * scale > t))
+      continue;
     const float rise = col[u] + rise_row;
     const float e = d * rise;
     const float above = e + floor_h;

@@ -114,9 +114,9 @@ Ref reference(const Camera& cam, const Config& cfg, const cv::Mat& in, double pi
       {
         const double zr = raw * scale;
         const double tr = std::max(curveAt(cfg.threshold_curve, std::is_same_v<T, std::uint8_t> ? (raw + 0.5) * step : zr), step);
-        if (zr > zc)
+        if (zr - z > tr && zr > zc)
           label = kAboveCeiling;
-        else if (std::fabs(zr - zf) < tr)
+        else if (zr - z > tr && std::fabs(zr - zf) < tr)
           label = kFloor;
       }
       ref.labels.at<std::uint8_t>(r, u) = label;
@@ -127,7 +127,7 @@ Ref reference(const Camera& cam, const Config& cfg, const cv::Mat& in, double pi
       {
         const double zr = raw * scale;
         const double tr = std::max(curveAt(cfg.threshold_curve, std::is_same_v<T, std::uint8_t> ? (raw + 0.5) * step : zr), step);
-        m = std::min({m, std::fabs(zr - zc), std::fabs(std::fabs(zr - zf) - tr)});
+        m = std::min({m, std::fabs(zr - zc), std::fabs(std::fabs(zr - zf) - tr), std::fabs(zr - z - tr)});
       }
       ref.margin.at<double>(r, u) = m;
     }
