@@ -30,6 +30,9 @@ struct RigidTransform
 /** @return a transform between @p a (f = 0) and @p b (f = 1): linear translation, spherical rotation. */
 RigidTransform interpolate(const RigidTransform& a, const RigidTransform& b, double f);
 
+/** @return the quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll) (the inverse of rollPitchYaw()). */
+std::array<double, 4> quaternionFromRpy(double roll, double pitch, double yaw);
+
 /** @return roll, pitch, yaw [rad] (fixed axes x, y, z; R = Rz(yaw) Ry(pitch) Rx(roll), as tf2's getRPY). */
 std::array<double, 3> rollPitchYaw(const std::array<double, 4>& q);
 

@@ -82,6 +82,14 @@ RigidTransform interpolate(const RigidTransform& a, const RigidTransform& b, dou
   return r;
 }
 
+std::array<double, 4> quaternionFromRpy(double roll, double pitch, double yaw)
+{
+  const double cr = std::cos(roll / 2), sr = std::sin(roll / 2), cp = std::cos(pitch / 2), sp = std::sin(pitch / 2),
+               cy = std::cos(yaw / 2), sy = std::sin(yaw / 2);
+  return {sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy,
+          cr * cp * cy + sr * sp * sy};
+}
+
 std::array<double, 3> rollPitchYaw(const std::array<double, 4>& q)
 {
   RigidTransform t;

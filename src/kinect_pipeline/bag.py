@@ -48,15 +48,8 @@ class Rig:
 
 
 def _quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return (
-        sr * cp * cy - cr * sp * sy,
-        cr * sp * cy + sr * cp * sy,
-        cr * cp * sy - sr * sp * cy,
-        cr * cp * cy + sr * sp * sy,
-    )
+    q = _core.quaternion_from_rpy(roll, pitch, yaw)
+    return (q[0], q[1], q[2], q[3])
 
 
 # Optical frame in the sensor's body frame (x right, y down, z forward vs x forward, z up).

@@ -97,9 +97,8 @@ class Calibration:
 
 def optical_quaternion(pitch: float, roll: float) -> tuple[float, float, float, float]:
     """The optical frame's orientation (x, y, z, w) in a z-up base frame for a sensor at pitch / roll."""
-    body = ((0.0, math.sin(pitch / 2), 0.0, math.cos(pitch / 2)), (0.0, 0.0, 0.0))
-    rolled = _core.compose_transforms(body, ((math.sin(roll / 2), 0.0, 0.0, math.cos(roll / 2)), (0.0, 0.0, 0.0)))
-    optical = _core.compose_transforms(rolled, ((-0.5, 0.5, -0.5, 0.5), (0.0, 0.0, 0.0)))
+    body = (tuple(_core.quaternion_from_rpy(roll, pitch, 0.0)), (0.0, 0.0, 0.0))
+    optical = _core.compose_transforms(body, ((-0.5, 0.5, -0.5, 0.5), (0.0, 0.0, 0.0)))
     q = optical[0]
     return (q[0], q[1], q[2], q[3])
 

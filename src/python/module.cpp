@@ -456,6 +456,8 @@ PYBIND11_MODULE(_core, m)
       py::arg("base_from_optical"), py::arg("base_frame_height") = 0.0,
       "(height, pitch, roll, yaw) of the sensor from its optical frame's transform in a gravity-aligned base frame.");
   m.def("roll_pitch_yaw", &rollPitchYaw, py::arg("q"), "(roll, pitch, yaw) of a quaternion (x, y, z, w).");
+  m.def("quaternion_from_rpy", &quaternionFromRpy, py::arg("roll"), py::arg("pitch"), py::arg("yaw") = 0.0,
+        "Quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll).");
   m.def(
       "render_lidar",
       [](const std::vector<std::array<double, 6>>& boxes, double z, double angle_min, double increment, int beams,

@@ -19,6 +19,18 @@ std::array<double, 4> quat(double r, double p, double y)
 }
 }  // namespace
 
+TEST(Pose, QuaternionFromRpyIsTheReference)
+{
+  for (double r : {0.0, 0.3, -0.7})
+    for (double p : {0.0, 0.26, -1.2})
+      for (double y : {0.0, 2.0})
+      {
+        const auto a = quaternionFromRpy(r, p, y), b = quat(r, p, y);
+        for (int i = 0; i < 4; ++i)
+          EXPECT_NEAR(a[i], b[i], 1e-12);
+      }
+}
+
 TEST(Pose, RollPitchYawRoundTrips)
 {
   for (double r : {0.0, 0.3, -0.7})
