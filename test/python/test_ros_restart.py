@@ -1,5 +1,7 @@
 """The node and the nodelet survive the ROS master restarting: roscpp registers topics and services only once, so
-the node registers them again itself (src/ros/master_reconnect.cpp) and serves clients that start afterwards.
+the node registers them again itself (src/ros/master_reconnect.cpp) and serves clients that start afterwards. And
+the node starts over when ROS time jumps back (a bag played again with use_sim_time), instead of dropping every
+frame as older than the last one.
 
 A roscore of its own on a free loopback port; every process is started here and stopped by its own PID (its own
 process group); deadlines, no fixed sleeps."""
@@ -11,6 +13,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -101,3 +104,16 @@ def test_serves_again_after_the_master_restarts(procs: Processes, kind: str) -> 
     # A client that registers with the new master only: topics, the scan and the reconfigure service must work.
     procs.helper("after", "--scans", "3", "--range-max", "3.5")
     assert "registered this process's topics and services again" in procs.log(name)
+
+
+def test_clock_jumping_back_starts_over(procs: Processes) -> None:
+    procs.start("roscore", "roscore", "-p", procs.env["PORT"])
+    deadline = time.monotonic() + 60
+    while subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=procs.env, capture_output=True).returncode:
+        assert time.monotonic() < deadline, "roscore did not come up"
+        time.sleep(0.2)
+    procs.start("node", str(NODE), "__name:=kp", *REMAPS)
+    procs.helper("clock_1000", "--scans", "5", "--clock", "1000")
+    # Time goes back by 900 s: without starting over, every later frame would be dropped as out of order.
+    procs.helper("clock_100", "--scans", "5", "--clock", "100")
+    assert "ROS time moved backwards" in procs.log("node")

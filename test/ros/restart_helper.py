@@ -16,14 +16,32 @@ import rospy
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 
+def start_clock(t0: float) -> None:
+    """Publishes /clock at 100 Hz from t0 on, advancing with wall time (a simulator or a bag being played)."""
+    from rosgraph_msgs.msg import Clock
+
+    pub = rospy.Publisher("/clock", Clock, queue_size=10)
+    wall0 = time.monotonic()
+
+    def run() -> None:
+        while True:
+            pub.publish(Clock(clock=rospy.Time.from_sec(t0 + time.monotonic() - wall0)))
+            time.sleep(0.01)
+
+    threading.Thread(target=run, daemon=True).start()
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--scans", type=int, default=3)
     ap.add_argument("--range-max", type=float, default=None)
     ap.add_argument("--node", default="/kp")
     ap.add_argument("--deadline", type=float, default=40.0)
+    ap.add_argument("--clock", type=float, default=None, help="publish /clock from this time on [s] (use_sim_time)")
     args = ap.parse_args()
     rospy.init_node("restart_helper", anonymous=True, disable_signals=True)
+    if args.clock is not None:
+        start_clock(args.clock)
     got: list[LaserScan] = []
     lock = threading.Lock()
 
@@ -48,6 +66,9 @@ def main() -> int:
 
     while time.monotonic() - start < args.deadline:
         stamp = rospy.Time.now()
+        if stamp.is_zero():  # no /clock yet
+            time.sleep(0.01)
+            continue
         info = CameraInfo()
         info.header.stamp = stamp
         info.header.frame_id = "cam_optical"

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """rostest of the node / nodelet wiring: depth + camera_info + tf in, LaserScan + cleaned image out, as the core
-predicts. Run by test/ros/node.test and test/ros/nodelet.test (real roscore, real nodelet manager)."""
+predicts; and what must not stop it: bad frames, zero and out-of-order stamps, a resolution change, tf appearing
+late, inputs stopping and resuming, dynamic_reconfigure at 100 Hz while frames flow. Run by test/ros/node.test and
+test/ros/nodelet.test (real roscore, real nodelet manager)."""
 
 from __future__ import annotations
 
