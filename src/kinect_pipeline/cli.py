@@ -213,6 +213,23 @@ def cmd_quality(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_cliff(args: argparse.Namespace) -> int:
+    from .cliff import EDGE, STEP, evaluate, picture, table
+
+    rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
+    print(
+        f"negative obstacles: a stair down {EDGE:g} m ahead ({STEP * 100:g} cm step) and a flat floor, Kinect v2 at "
+        f"1.1 m tilted 0.3 rad, {args.frames} frames per condition, {args.encoding} with noise, dropouts and "
+        "flying pixels; cliff_in_scan on:"
+    )
+    print(table(rows))
+    if args.pictures:
+        out = Path(args.pictures)
+        out.mkdir(parents=True, exist_ok=True)
+        print("pictures: " + "  ".join(str(p) for p in picture(out, args.encoding)))
+    return 0
+
+
 def cmd_soak(args: argparse.Namespace) -> int:
     from .bench_ros import run, soak_report
 
@@ -366,6 +383,13 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     q.add_argument("--quiet", action="store_true")
     q.set_defaults(func=cmd_quality)
+
+    cl = sub.add_parser("cliff", help="negative obstacles (stair down, hole, flat floor) per pitch condition")
+    cl.add_argument("--frames", type=int, default=20, help="frames per pitch condition")
+    cl.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
+    cl.add_argument("--pictures", metavar="DIR", help="also write the stair and hole pictures into DIR")
+    cl.add_argument("--quiet", action="store_true")
+    cl.set_defaults(func=cmd_cliff)
 
     so = sub.add_parser("soak", help="long run through a real roscore: drops, latency, memory at start and end")
     so.add_argument("--minutes", type=float, default=10.0)
