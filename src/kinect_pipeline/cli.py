@@ -85,7 +85,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from .replay import ReplayError, ReplayOptions, format_report, replay
+    from .replay import ReplayError, ReplayOptions, format_report, partial_path, replay
 
     config = parse_params(args.param)
     opts = ReplayOptions(
@@ -97,10 +97,26 @@ def cmd_replay(args: argparse.Namespace) -> int:
         skip_bad=args.skip_bad,
         config=config,
     )
+    out = Path(args.output)
     try:
-        report = replay(Path(args.input), Path(args.output), opts, show_progress=not args.quiet)
+        report = replay(
+            Path(args.input),
+            out,
+            opts,
+            show_progress=not args.quiet,
+            resume=args.resume,
+            max_frames=args.max_frames,
+        )
     except ReplayError as exc:
         raise ToolError(str(exc)) from exc
+    except KeyboardInterrupt:
+        if partial_path(out).exists():
+            print(
+                f"kinect-pipeline replay: interrupted; what was written is in {partial_path(out)}: run the same "
+                "command with --resume to continue",
+                file=sys.stderr,
+            )
+        return 130
     print(format_report(report))
     return 0
 
@@ -300,7 +316,19 @@ def build_parser() -> argparse.ArgumentParser:
         default="static",
         help="frames without tf: static pose from the parameters, or skip them",
     )
-    rp.add_argument("--skip-bad", action="store_true", help="skip damaged data instead of stopping")
+    rp.add_argument(
+        "--skip-bad",
+        action="store_true",
+        help="skip damaged messages (and read a truncated or unindexed bag) instead of stopping; says how many and "
+        "where",
+    )
+    rp.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a replay into OUTPUT that stopped (killed: its .OUTPUT.partial file; or --max-frames): "
+        "takes the frames it wrote, computes the rest; the same result as one uninterrupted run",
+    )
+    rp.add_argument("--max-frames", type=int, help="stop after this many depth frames (a complete, shorter bag)")
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
