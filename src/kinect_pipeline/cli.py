@@ -63,7 +63,12 @@ def cmd_synth(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
 
     summary = write_sequence_bag(
-        Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed, show_progress=not args.quiet
+        Path(args.output),
+        frames=args.frames,
+        encoding=args.encoding,
+        seed=args.seed,
+        show_progress=not args.quiet,
+        tf_error=(args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll)),
     )
     print(json.dumps(summary))
     return 0
@@ -125,6 +130,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from . import _core
     from .calibrate import CalibrationError, calibrate, load_depth
 
+    if args.bag:
+        return _calibrate_bag(args)
+    if not args.files or not args.intrinsics:
+        raise ToolError(
+            "give depth frames and --intrinsics FX FY CX CY, or --bag BAG to check its tf against the floor"
+        )
     try:
         frames = [(f, load_depth(Path(f), args.depth_scale, args.max_depth)) for f in args.files]
         h, w = frames[0][1].shape
@@ -148,6 +159,38 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"static tf: {d['static_transform']}")
     if not result.found:
         print(f"kinect-pipeline calibrate: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _calibrate_bag(args: argparse.Namespace) -> int:
+    """calibrate --bag: the tf-provided pose against the floor seen in each frame."""
+    from .calibrate import CalibrationError, check_tf, describe_tf_check, plot_tf_check
+
+    if args.files:
+        raise ToolError(f"--bag checks a bag: give no frame files as well (got {args.files})")
+    try:
+        check = check_tf(
+            Path(args.bag),
+            depth_topic=args.depth_topic,
+            base_frame=args.base_frame,
+            base_frame_height=args.base_frame_height,
+            max_depth=args.max_depth,
+            max_tilt=math.radians(args.max_tilt),
+            show_progress=not args.json,
+        )
+    except CalibrationError as exc:
+        raise ToolError(str(exc)) from exc
+    if args.plot:
+        plot_tf_check(check, Path(args.plot))
+    if args.json:
+        print(json.dumps(check.as_dict(), indent=1))
+    else:
+        print(describe_tf_check(check))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    if check.summary()["frames_with_floor"] == 0:
+        print(f"kinect-pipeline calibrate: no floor found in any frame of {args.bag}", file=sys.stderr)
         return 1
     return 0
 
@@ -292,6 +335,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     s.add_argument("--seed", type=int, default=1)
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument(
+        "--tf-error-height", type=float, default=0.0, help="add this to the mounting height the tf states [m]"
+    )
+    s.add_argument(
+        "--tf-error-pitch", type=float, default=0.0, help="add this to the mounting pitch the tf states [deg]"
+    )
+    s.add_argument("--tf-error-roll", type=float, default=0.0, help="add this to the mounting roll the tf states [deg]")
     s.set_defaults(func=cmd_synth)
 
     b = sub.add_parser("bench", help="time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)")
@@ -366,9 +416,20 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
     cv.set_defaults(func=cmd_curve)
 
-    c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
-    c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
-    c.add_argument("--intrinsics", nargs=4, type=float, required=True, metavar=("FX", "FY", "CX", "CY"))
+    c = sub.add_parser(
+        "calibrate",
+        help="sensor height, pitch and roll from frames of a flat floor; --bag: tf's pose vs the floor per frame",
+    )
+    c.add_argument("files", nargs="*", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
+    c.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
+    c.add_argument(
+        "--bag",
+        help="a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is from the floor seen "
+        "in it (median / p95 / max; intrinsics from its camera_info)",
+    )
+    c.add_argument("--depth-topic", help="with --bag: the depth Image topic (default: as replay)")
+    c.add_argument("--base-frame-height", type=float, default=0.0, help="with --bag: base frame height [m]")
+    c.add_argument("--plot", help="with --bag: write a PNG of tf vs floor per frame")
     c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
     c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
     c.add_argument(

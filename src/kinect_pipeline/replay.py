@@ -154,6 +154,52 @@ def open_bag(path: Path, recover: bool = False) -> Bag:
     return Bag(path, recover=recover)
 
 
+def read_tf(bag: Bag, on_damage: Any = None) -> TfBuffer:
+    """All of the bag's /tf and /tf_static (a frame may come before the transform at its stamp). A message that
+    cannot be decoded is a damaged record: raised as ReplayError, or given to ``on_damage`` and skipped."""
+    ts = _typestore()
+    tf = TfBuffer()
+    conns = [c for c in bag.connections if c.topic in ("/tf", "/tf_static")]
+    for conn, _, raw, off in bag.records(conns, on_damage) if conns else ():
+        try:
+            msg = ts.deserialize_ros1(raw, conn.msgtype)
+        except Exception as exc:  # rosbags raises several kinds on garbage
+            damage = Damage(off, conn.topic, f"cannot be decoded as {conn.msgtype}: {exc}", lost=1)
+            if on_damage is None:
+                raise ReplayError(f"{bag.path}: damaged message record at {damage}") from exc
+            on_damage(damage)
+            continue
+        tf.add(msg, static=conn.topic == "/tf_static")
+    return tf
+
+
+def depth_frames(bag: Bag, depth_topic: str, info_topic: str, progress_name: str | None = None) -> Iterator[Any]:
+    """(depth Image, its CameraInfo) in time order: the camera_info of the same stamp, else the latest before;
+    frames before any camera_info are left out. ``progress_name``: a progress bar (frames/s) with that name."""
+    ts = _typestore()
+    conns = [c for c in bag.connections if c.topic in (depth_topic, info_topic)]
+    total = sum(c.msgcount for c in conns if c.topic == depth_topic)
+    bar: Any = None
+    if progress_name:
+        from .demo import progress
+
+        bar = iter(progress(range(total), total, progress_name))
+    infos: dict[float, Any] = {}
+    for conn, _, raw in bag.messages(conns):
+        msg = ts.deserialize_ros1(raw, conn.msgtype)
+        st = _stamp(msg.header)
+        if conn.topic == info_topic:
+            infos[st] = msg
+            continue
+        if bar is not None:
+            next(bar, None)
+        info = infos.get(st) or (infos[max(infos)] if infos else None)
+        if info is not None:
+            yield msg, info
+    for _ in bar or ():
+        pass
+
+
 def camera_from_info(info: Any) -> _core.Camera:
     """The core's camera model of a CameraInfo message (K: fx, fy, cx, cy)."""
     return _core.Camera(
@@ -447,13 +493,7 @@ def replay(
                 damaged(Damage(offset, conn.topic, f"cannot be decoded as {conn.msgtype}: {exc}", lost=1))
                 return None
 
-        tf = TfBuffer()
-        # tf first (a frame may come before the transform at its stamp): read all of it.
-        tf_conns = [c for c in bag.connections if c.topic in ("/tf", "/tf_static")]
-        for conn, _, raw, off in bag.records(tf_conns, damaged) if tf_conns else ():
-            msg = decode(conn, raw, off)
-            if msg is not None:
-                tf.add(msg, static=conn.topic == "/tf_static")
+        tf = read_tf(bag, damaged)
         if resume:
             earlier, why = _earlier_run(out, tmp, old, meta)
             if earlier is None:
