@@ -63,7 +63,12 @@ def cmd_synth(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
 
     summary = write_sequence_bag(
-        Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed, show_progress=not args.quiet
+        Path(args.output),
+        frames=args.frames,
+        encoding=args.encoding,
+        seed=args.seed,
+        show_progress=not args.quiet,
+        tf_error=(args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll)),
     )
     print(json.dumps(summary))
     return 0
@@ -87,7 +92,7 @@ def cmd_bench(args: argparse.Namespace) -> int:
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from .replay import ReplayError, ReplayOptions, format_report, replay
+    from .replay import ReplayError, ReplayOptions, format_report, partial_path, replay
 
     config = parse_params(args.param)
     opts = ReplayOptions(
@@ -99,10 +104,26 @@ def cmd_replay(args: argparse.Namespace) -> int:
         skip_bad=args.skip_bad,
         config=config,
     )
+    out = Path(args.output)
     try:
-        report = replay(Path(args.input), Path(args.output), opts, show_progress=not args.quiet)
+        report = replay(
+            Path(args.input),
+            out,
+            opts,
+            show_progress=not args.quiet,
+            resume=args.resume,
+            max_frames=args.max_frames,
+        )
     except ReplayError as exc:
         raise ToolError(str(exc)) from exc
+    except KeyboardInterrupt:
+        if partial_path(out).exists():
+            print(
+                f"kinect-pipeline replay: interrupted; what was written is in {partial_path(out)}: run the same "
+                "command with --resume to continue",
+                file=sys.stderr,
+            )
+        return 130
     print(format_report(report))
     return 0
 
@@ -111,6 +132,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from . import _core
     from .calibrate import CalibrationError, calibrate, load_depth
 
+    if args.bag:
+        return _calibrate_bag(args)
+    if not args.files or not args.intrinsics:
+        raise ToolError(
+            "give depth frames and --intrinsics FX FY CX CY, or --bag BAG to check its tf against the floor"
+        )
     try:
         frames = [(f, load_depth(Path(f), args.depth_scale, args.max_depth)) for f in args.files]
         h, w = frames[0][1].shape
@@ -134,6 +161,38 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"static tf: {d['static_transform']}")
     if not result.found:
         print(f"kinect-pipeline calibrate: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _calibrate_bag(args: argparse.Namespace) -> int:
+    """calibrate --bag: the tf-provided pose against the floor seen in each frame."""
+    from .calibrate import CalibrationError, check_tf, describe_tf_check, plot_tf_check
+
+    if args.files:
+        raise ToolError(f"--bag checks a bag: give no frame files as well (got {args.files})")
+    try:
+        check = check_tf(
+            Path(args.bag),
+            depth_topic=args.depth_topic,
+            base_frame=args.base_frame,
+            base_frame_height=args.base_frame_height,
+            max_depth=args.max_depth,
+            max_tilt=math.radians(args.max_tilt),
+            show_progress=not args.json,
+        )
+    except CalibrationError as exc:
+        raise ToolError(str(exc)) from exc
+    if args.plot:
+        plot_tf_check(check, Path(args.plot))
+    if args.json:
+        print(json.dumps(check.as_dict(), indent=1))
+    else:
+        print(describe_tf_check(check))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    if check.summary()["frames_with_floor"] == 0:
+        print(f"kinect-pipeline calibrate: no floor found in any frame of {args.bag}", file=sys.stderr)
         return 1
     return 0
 
@@ -295,6 +354,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     s.add_argument("--seed", type=int, default=1)
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument(
+        "--tf-error-height", type=float, default=0.0, help="add this to the mounting height the tf states [m]"
+    )
+    s.add_argument(
+        "--tf-error-pitch", type=float, default=0.0, help="add this to the mounting pitch the tf states [deg]"
+    )
+    s.add_argument("--tf-error-roll", type=float, default=0.0, help="add this to the mounting roll the tf states [deg]")
     s.set_defaults(func=cmd_synth)
 
     b = sub.add_parser("bench", help="time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)")
@@ -320,7 +386,19 @@ def build_parser() -> argparse.ArgumentParser:
         default="static",
         help="frames without tf: static pose from the parameters, or skip them",
     )
-    rp.add_argument("--skip-bad", action="store_true", help="skip damaged data instead of stopping")
+    rp.add_argument(
+        "--skip-bad",
+        action="store_true",
+        help="skip damaged messages (and read a truncated or unindexed bag) instead of stopping; says how many and "
+        "where",
+    )
+    rp.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a replay into OUTPUT that stopped (killed: its .OUTPUT.partial file; or --max-frames): "
+        "takes the frames it wrote, computes the rest; the same result as one uninterrupted run",
+    )
+    rp.add_argument("--max-frames", type=int, help="stop after this many depth frames (a complete, shorter bag)")
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
@@ -358,9 +436,20 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
     cv.set_defaults(func=cmd_curve)
 
-    c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
-    c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
-    c.add_argument("--intrinsics", nargs=4, type=float, required=True, metavar=("FX", "FY", "CX", "CY"))
+    c = sub.add_parser(
+        "calibrate",
+        help="sensor height, pitch and roll from frames of a flat floor; --bag: tf's pose vs the floor per frame",
+    )
+    c.add_argument("files", nargs="*", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
+    c.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
+    c.add_argument(
+        "--bag",
+        help="a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is from the floor seen "
+        "in it (median / p95 / max; intrinsics from its camera_info)",
+    )
+    c.add_argument("--depth-topic", help="with --bag: the depth Image topic (default: as replay)")
+    c.add_argument("--base-frame-height", type=float, default=0.0, help="with --bag: base frame height [m]")
+    c.add_argument("--plot", help="with --bag: write a PNG of tf vs floor per frame")
     c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
     c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
     c.add_argument(
