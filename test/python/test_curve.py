@@ -97,8 +97,6 @@ def test_set_node_sets_the_curve_on_a_running_node(tmp_path: Path) -> None:
     """`kinect-pipeline curve --set-node` through dynamic_reconfigure on the real node (own roscore, stopped by PID)."""
     import os
     import shutil
-    import signal
-    import socket
     import subprocess
     import sys
     import time
@@ -106,9 +104,9 @@ def test_set_node_sets_the_curve_on_a_running_node(tmp_path: Path) -> None:
     if shutil.which("roscore") is None or shutil.which("roslaunch") is None:
         pytest.skip("roscore / roslaunch not installed")
     rosgraph = pytest.importorskip("rosgraph")
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
+    from kinect_pipeline.bench_ros import _free_port, _stop
+
+    port = _free_port()
     uri = f"http://127.0.0.1:{port}"
     env = dict(os.environ, ROS_MASTER_URI=uri, ROS_IP="127.0.0.1", ROS_HOME=str(tmp_path))
     procs: list[subprocess.Popen[bytes]] = []
@@ -152,13 +150,7 @@ def test_set_node_sets_the_curve_on_a_running_node(tmp_path: Path) -> None:
         assert got == pytest.approx(want.points, abs=1e-6), (param, want.text)
     finally:
         for p in reversed(procs):
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGINT)
-                try:
-                    p.wait(timeout=20)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
-                    p.wait(timeout=10)
+            _stop(p)  # SIGINT to its own process group, SIGKILL after a deadline
 
 
 def test_set_node_without_a_master_says_so(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
