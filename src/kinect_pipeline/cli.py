@@ -41,7 +41,7 @@ def _bench_binary() -> Path:
 def cmd_demo(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
     from .demo import run_demo
-    from .replay import format_report, replay
+    from .replay import format_report, partial_path, replay
     from .report import write_report
 
     out = Path(args.out)
@@ -49,7 +49,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=1))
     # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.
     bag, replayed = out / "demo.bag", out / "demo_replayed.bag"
-    for p in (bag, replayed):  # the demo's own outputs of an earlier run
+    for p in (bag, replayed, partial_path(replayed)):  # the demo's own outputs of an earlier (interrupted) run
         p.unlink(missing_ok=True)
     write_sequence_bag(bag, frames=args.frames, encoding=args.encoding, seed=args.seed)
     print(format_report(replay(bag, replayed, show_progress=True)))
