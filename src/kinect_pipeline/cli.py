@@ -41,7 +41,7 @@ def _bench_binary() -> Path:
 def cmd_demo(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
     from .demo import run_demo
-    from .replay import format_report, replay
+    from .replay import format_report, partial_path, replay
     from .report import write_report
 
     out = Path(args.out)
@@ -49,7 +49,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=1))
     # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.
     bag, replayed = out / "demo.bag", out / "demo_replayed.bag"
-    for p in (bag, replayed):  # the demo's own outputs of an earlier run
+    for p in (bag, replayed, partial_path(replayed)):  # the demo's own outputs of an earlier (interrupted) run
         p.unlink(missing_ok=True)
     write_sequence_bag(bag, frames=args.frames, encoding=args.encoding, seed=args.seed)
     print(format_report(replay(bag, replayed, show_progress=True)))
@@ -225,14 +225,21 @@ def cmd_regress(args: argparse.Namespace) -> int:
 def cmd_curve(args: argparse.Namespace) -> int:
     from . import _core
     from .calibrate import CalibrationError, load_depth
-    from .curve import curve_from_model, describe, fit_curve, plot, set_live, write_yaml
+    from .curve import curve_from_model, describe, fit_curve, generated_floor_frames, plot, set_live, write_yaml
 
     try:
         if args.from_model:
             fit = curve_from_model(args.from_model[0], args.from_model[1], args.rate, args.margin)
+        elif args.compare and not args.files:
+            print("fitted on 3 generated Kinect v2 floor frames (no frames given):")
+            frames = generated_floor_frames(3)
+            h, w = frames[0][1].shape
+            from . import kinect_v2_camera
+
+            fit = fit_curve(frames, kinect_v2_camera(), args.rate, args.margin)
         else:
             if not args.files or not args.intrinsics:
-                raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K")
+                raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K, or --compare")
             frames = [(f, load_depth(Path(f), args.depth_scale)) for f in args.files]
             h, w = frames[0][1].shape
             fit = fit_curve(frames, _core.Camera(w, h, *args.intrinsics), args.rate, args.margin)
@@ -245,6 +252,19 @@ def cmd_curve(args: argparse.Namespace) -> int:
     if args.plot:
         plot(fit, _core.Config().threshold_curve, Path(args.plot))
         print(f"plot: {args.plot}")
+    if args.compare:
+        from .curve import compare_with_constant, comparison_table, plot_comparison
+
+        cmp = compare_with_constant(fit, frames=args.compare_frames)
+        print(
+            f"on {args.compare_frames} generated noisy frames (lab scene, Kinect v2 at 1.1 m tilted 15 deg, Segway "
+            "pitching, 16UC1, noise + dropouts + flying pixels); phantom beam: shorter than the nearest true obstacle "
+            "by > 5 cm + 4 sigma; goal <= 0.2 %:"
+        )
+        print(comparison_table(cmp.rows()))
+        if args.compare_plot:
+            plot_comparison(cmp.rows(), Path(args.compare_plot))
+            print(f"plot: {args.compare_plot}")
     if args.set_node:
         print(f"set on {args.set_node}: {set_live(args.set_node, fit)['threshold_curve']}")
     return 0
@@ -422,7 +442,13 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("files", nargs="*", help="floor frames (as for calibrate)")
     cv.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
     cv.add_argument("--depth-scale", type=float, default=0.001)
-    cv.add_argument("--rate", type=float, default=1e-3, help="false-obstacle rate per floor pixel (default 0.001)")
+    cv.add_argument(
+        "--rate",
+        type=float,
+        default=1e-4,
+        help="false-obstacle rate per floor pixel (default 1e-4: a beam sees ~100 floor pixels, so this keeps "
+        "phantom beams under the 0.2 %% goal)",
+    )
     cv.add_argument("--margin", type=float, default=0.01, help="added to k sigma [m]")
     cv.add_argument(
         "--from-model",
@@ -434,6 +460,14 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("-o", "--output", help="write the curve as YAML (rosparam / dynamic_reconfigure)")
     cv.add_argument("--plot", help="write a PNG of the residuals and the curves")
     cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
+    cv.add_argument(
+        "--compare",
+        action="store_true",
+        help="score it on generated noisy frames against the constant margins with the same false-obstacle and "
+        "phantom-beam rates (fits on generated floor frames when no frames are given)",
+    )
+    cv.add_argument("--compare-frames", type=int, default=12, help="generated frames for --compare (default 12)")
+    cv.add_argument("--compare-plot", help="with --compare: write a PNG of the curves and what they remove")
     cv.set_defaults(func=cmd_curve)
 
     c = sub.add_parser(
