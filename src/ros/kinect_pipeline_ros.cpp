@@ -30,8 +30,12 @@ const char* toString(DropReason r)
       return "no pose";
     case DropReason::kStamp:
       return "stamp out of order";
+    case DropReason::kZeroStamp:
+      return "zero stamp";
     case DropReason::kProcessing:
       return "refused by the core";
+    case DropReason::kInternal:
+      return "internal error";
     default:
       return "?";
   }
@@ -94,8 +98,23 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   , diagnostics_(nh, pnh)
   , input_freq_(diagnostic_updater::FrequencyStatusParam(&min_freq_, &max_freq_, 0.1, 10))
 {
+  // Everything a callback touches exists before the first subscription: in a nodelet manager with several
+  // threads, callbacks may run before this constructor returns.
+  diagnostics_.setHardwareID(name_);
+  diagnostics_.add(input_freq_);
+  diagnostics_.add("processing", this, &KinectPipelineRos::diagnose);
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<KinectPipelineConfig>>(reconfigure_mutex_, pnh_);
   reconfigure_->setCallback([this](KinectPipelineConfig& c, uint32_t level) { reconfigureCb(c, level); });
+  // roscpp does not register again with a restarted master: this does, for the whole process.
+  const std::string me = ros::this_node::getName();
+  master_ = std::make_unique<MasterReconnect>(
+      nh_,
+      std::vector<std::string>{pnh_.resolveName("set_parameters"), me + "/get_loggers", me + "/set_logger_level",
+                               me + "/load_nodelet", me + "/unload_nodelet", me + "/list"},
+      [this] { republishParameters(); });
+  // Diagnostics keep coming when every frame is dropped or none arrives; only this timer publishes them.
+  diagnostics_timer_ =
+      nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_.update(); });
 
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10);
   cliff_pub_ = nh_.advertise<sensor_msgs::LaserScan>("cliff_scan", 10);
@@ -106,41 +125,52 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   // ~image_transport selects the transport (raw, compressedDepth, ...).
   sub_ = it_.subscribeCamera("image", 2, &KinectPipelineRos::imageCb, this,
                              image_transport::TransportHints("raw", ros::TransportHints().tcpNoDelay(), pnh_));
-
-  diagnostics_.setHardwareID(name_);
-  diagnostics_.add(input_freq_);
-  diagnostics_.add("processing", this, &KinectPipelineRos::diagnose);
-  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_.update(); });
   ROS_INFO("%s: listening on %s (+ camera_info), publishing %s", name_.c_str(), sub_.getTopic().c_str(),
            scan_pub_.getTopic().c_str());
 }
 
-KinectPipelineRos::~KinectPipelineRos() = default;
+void KinectPipelineRos::republishParameters()
+{
+  boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
+  if (have_good_config_)
+    reconfigure_->updateConfig(last_good_config_);  // back onto the parameter server, and to parameter_updates
+}
+
+KinectPipelineRos::~KinectPipelineRos()
+{
+  // Stop what calls into this object before its members go.
+  sub_.shutdown();
+  imu_sub_.shutdown();
+  pitch_sub_.shutdown();
+  diagnostics_timer_.stop();
+  master_.reset();
+}
 
 void KinectPipelineRos::reconfigureCb(KinectPipelineConfig& config, uint32_t /*level*/)
 {
-  static thread_local bool have_good = false;
-  static thread_local KinectPipelineConfig last_good;
+  // Runs under reconfigure_mutex_ (the server's), on the thread of the set_parameters service.
   try
   {
-    auto s = std::make_shared<const NodeSettings>(settingsFromConfig(config));
-    {
-      std::lock_guard<std::mutex> lock(settings_mutex_);
-      pending_ = s;
-    }
-    last_good = config;
-    have_good = true;
+    exchange_.post(std::make_shared<const NodeSettings>(settingsFromConfig(config)));
+    last_good_config_ = config;
+    have_good_config_ = true;
   }
   catch (const std::invalid_argument& e)
   {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++params_refused_;
+      last_problem_ = std::string("parameters refused: ") + e.what();
+    }
     ROS_ERROR("%s: parameters refused: %s; keeping the previous values", name_.c_str(), e.what());
-    if (have_good)
-      config = last_good;  // the server then publishes the values in force
+    if (have_good_config_)
+      config = last_good_config_;  // the server then publishes the values in force
     else
     {
       config = KinectPipelineConfig::__getDefault__();
-      std::lock_guard<std::mutex> lock(settings_mutex_);
-      pending_ = std::make_shared<const NodeSettings>(settingsFromConfig(config));
+      exchange_.post(std::make_shared<const NodeSettings>(settingsFromConfig(config)));
+      last_good_config_ = config;
+      have_good_config_ = true;
     }
   }
 }
@@ -149,24 +179,20 @@ void KinectPipelineRos::imuCb(const sensor_msgs::ImuConstPtr& msg)
 {
   double pitch, roll;
   conversions::pitchRollFromQuaternion(msg->orientation, pitch, roll);
-  std::lock_guard<std::mutex> lock(settings_mutex_);
-  if (!active_ || active_->pose_source != "imu")
-    return;
-  topic_pitch_ = pitch;
-  topic_roll_ = roll;
-  topic_stamp_ = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
-  have_topic_pose_ = true;
+  std::lock_guard<std::mutex> lock(topic_mutex_);
+  imu_pose_.pitch = pitch;
+  imu_pose_.roll = roll;
+  imu_pose_.stamp = msg->header.stamp.isZero() ? ros::Time::now() : msg->header.stamp;
+  imu_pose_.valid = true;
 }
 
 void KinectPipelineRos::pitchCb(const std_msgs::Float64ConstPtr& msg)
 {
-  std::lock_guard<std::mutex> lock(settings_mutex_);
-  if (!active_ || active_->pose_source != "pitch_topic")
-    return;
-  topic_pitch_ = msg->data;
-  topic_roll_ = 0.0;
-  topic_stamp_ = ros::Time::now();  // Float64 has no header: its arrival time stands for its stamp
-  have_topic_pose_ = true;
+  std::lock_guard<std::mutex> lock(topic_mutex_);
+  pitch_pose_.pitch = msg->data;
+  pitch_pose_.roll = 0.0;
+  pitch_pose_.stamp = ros::Time::now();  // Float64 has no header: its arrival time stands for its stamp
+  pitch_pose_.valid = true;
 }
 
 void KinectPipelineRos::drop(DropReason reason, const std::string& message)
@@ -212,16 +238,20 @@ bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& h
   }
   else
   {
-    std::lock_guard<std::mutex> lock(settings_mutex_);
-    const double age = have_topic_pose_ ? std::fabs((header.stamp - topic_stamp_).toSec()) : 1e9;
-    if (have_topic_pose_ && age <= s.pose_max_age)
+    TopicPose topic;
     {
-      pose = SensorPose{k.sensor_height, k.sensor_pitch + topic_pitch_, k.sensor_roll + topic_roll_};
+      std::lock_guard<std::mutex> lock(topic_mutex_);
+      topic = s.pose_source == "imu" ? imu_pose_ : pitch_pose_;
+    }
+    const double age = topic.valid ? std::fabs((header.stamp - topic.stamp).toSec()) : 1e9;
+    if (topic.valid && age <= s.pose_max_age)
+    {
+      pose = SensorPose{k.sensor_height, k.sensor_pitch + topic.pitch, k.sensor_roll + topic.roll};
       return true;
     }
     std::ostringstream m;
     m << (s.pose_source == "imu" ? "imu" : "base_pitch") << " topic: "
-      << (have_topic_pose_ ? "last message " + std::to_string(age) + " s from the image stamp" : "nothing received yet")
+      << (topic.valid ? "last message " + std::to_string(age) + " s from the image stamp" : "nothing received yet")
       << " (pose_max_age " << s.pose_max_age << " s)";
     why = m.str();
   }
@@ -250,28 +280,62 @@ bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& h
 
 void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info)
 {
+  // A perception node must not stop serving because of one frame: nothing may leave this callback.
+  try
+  {
+    processImage(image, info);
+  }
+  catch (const std::exception& e)
+  {
+    drop(DropReason::kInternal, std::string("unexpected exception: ") + e.what());
+  }
+  catch (...)
+  {
+    drop(DropReason::kInternal, "unexpected exception of unknown type");
+  }
+}
+
+void KinectPipelineRos::processImage(const sensor_msgs::ImageConstPtr& image,
+                                     const sensor_msgs::CameraInfoConstPtr& info)
+{
   const auto t0 = std::chrono::steady_clock::now();
   ++frames_in_;
   input_freq_.tick();
-  bool changed = false;
-  {
-    std::lock_guard<std::mutex> lock(settings_mutex_);
-    if (pending_)
-    {
-      active_ = pending_;
-      pending_.reset();
-      changed = true;
-    }
-  }
+  exchange_.take(active_);  // settings change between frames only, and whole
   if (!active_)
     return;
   const NodeSettings& s = *active_;
 
-  if (!last_stamp_.isZero() && !image->header.stamp.isZero() && image->header.stamp < last_stamp_)
+  // The clock jumped back (a bag played again with use_sim_time, a simulation restarted): start over, as
+  // tf2_ros's listener does with its buffer.
+  const ros::Time now = ros::Time::now();
+  if (!last_clock_.isZero() && now < last_clock_)
   {
-    drop(DropReason::kStamp, "stamp " + std::to_string(image->header.stamp.toSec()) + " is older than the previous " +
-                                 std::to_string(last_stamp_.toSec()));
-    return;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++clock_resets_;
+    }
+    ROS_WARN("%s: ROS time moved backwards (%.3f -> %.3f s): forgetting the last stamp, pose and confidence history",
+             name_.c_str(), last_clock_.toSec(), now.toSec());
+    last_stamp_ = ros::Time();
+    last_pose_valid_ = false;
+    pipeline_.reset();
+  }
+  last_clock_ = now;
+
+  if (image->header.stamp.isZero())
+  {
+    return drop(DropReason::kZeroStamp, "image stamp is 0 (frame_id '" + image->header.frame_id +
+                                            "'): the driver did not stamp it, so neither its pose nor the scan's "
+                                            "time is known; expected the capture time");
+  }
+  if (!last_stamp_.isZero() && image->header.stamp <= last_stamp_)
+  {
+    std::ostringstream m;
+    m.precision(9);
+    m << std::fixed << "stamp " << image->header.stamp.toSec() << " is not newer than the previous frame's "
+      << last_stamp_.toSec() << " (expected increasing stamps)";
+    return drop(DropReason::kStamp, m.str());
   }
   Camera cam;
   cv::Mat depth;
@@ -308,21 +372,23 @@ void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const s
 
   try
   {
-    if (!pipeline_)
-      pipeline_ = std::make_unique<Pipeline>(cam, s.core);
-    else
-    {
-      if (changed)
-        pipeline_->setConfig(s.core);
-      if (cam != camera_)
-        pipeline_->setCamera(cam);
-    }
-    camera_ = cam;
-    pipeline_->process(depth, pose, result_);
+    // Re-configured only when the settings object or the camera changed (a camera may change its resolution).
+    pipeline_.process(std::shared_ptr<const Config>(active_, &active_->core), cam, depth, pose, result_);
   }
   catch (const std::invalid_argument& e)
   {
     return drop(DropReason::kProcessing, e.what());
+  }
+  if (cam != camera_)
+  {
+    if (camera_.width > 0)
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++camera_changes_;
+    }
+    ROS_INFO("%s: camera %dx%d, fx %.2f fy %.2f cx %.2f cy %.2f", name_.c_str(), cam.width, cam.height, cam.fx, cam.fy,
+             cam.cx, cam.cy);
+    camera_ = cam;
   }
 
   const double scan_time = last_stamp_.isZero() ? 0.0 : (image->header.stamp - last_stamp_).toSec();
@@ -373,7 +439,6 @@ void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const s
     for (int k = 0; k < kNumLabels; ++k)
       label_totals_[k] += result_.counts[k];
   }
-  diagnostics_.update();
 }
 
 void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
@@ -395,6 +460,11 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   for (int i = 0; i < static_cast<int>(DropReason::kCount); ++i)
     stat.add(std::string("dropped: ") + toString(static_cast<DropReason>(i)), static_cast<unsigned long long>(drops_[i]));
   stat.add("pose fallbacks", static_cast<unsigned long long>(pose_fallbacks_));
+  stat.add("parameters refused", static_cast<unsigned long long>(params_refused_));
+  stat.add("clock jumps back", static_cast<unsigned long long>(clock_resets_));
+  stat.add("camera model changes", static_cast<unsigned long long>(camera_changes_));
+  stat.add("master reconnections", static_cast<unsigned long long>(master_ ? master_->reconnections() : 0));
+  stat.add("master registration failures", static_cast<unsigned long long>(master_ ? master_->failures() : 0));
   stat.add("processing time last [ms]", last_ms_);
   stat.add("processing time max [ms]", max_ms_);
   stat.add("processing time mean [ms]", out ? sum_ms_ / out : 0.0);

@@ -27,6 +27,8 @@
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/ros/master_reconnect.h"
+#include "kinect_pipeline/settings_exchange.h"
 
 namespace kinect_pipeline
 {
@@ -59,7 +61,9 @@ enum class DropReason : int
   kSize,
   kNoPose,
   kStamp,
+  kZeroStamp,
   kProcessing,
+  kInternal,
   kCount
 };
 const char* toString(DropReason r);
@@ -87,6 +91,10 @@ private:
   void imuCb(const sensor_msgs::ImuConstPtr& msg);
   void pitchCb(const std_msgs::Float64ConstPtr& msg);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /** The frame's work; imageCb() wraps it so that no exception ever leaves a callback. */
+  void processImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  /** After a master restart: the parameters in force back onto the (new) parameter server. */
+  void republishParameters();
   void drop(DropReason reason, const std::string& message);
   /** @return false when the frame must be dropped; @p why says what happened otherwise (fallbacks). */
   bool poseFor(const NodeSettings& s, const std_msgs::Header& header, SensorPose& pose, double& yaw,
@@ -105,22 +113,33 @@ private:
 
   boost::recursive_mutex reconfigure_mutex_;
   std::unique_ptr<dynamic_reconfigure::Server<KinectPipelineConfig>> reconfigure_;
+  // Only the reconfigure callback (under reconfigure_mutex_) touches these two.
+  bool have_good_config_ = false;
+  KinectPipelineConfig last_good_config_;
 
-  std::mutex settings_mutex_;  // guards pending_ and the base pose of the topics
-  std::shared_ptr<const NodeSettings> pending_;
+  /** Validated settings from the reconfigure callback to the frame callback (ROS-free, see the core). */
+  SettingsExchange<NodeSettings> exchange_;
   std::shared_ptr<const NodeSettings> active_;  // only the frame callback touches it
-  double topic_pitch_ = 0.0, topic_roll_ = 0.0;
-  ros::Time topic_stamp_;
-  bool have_topic_pose_ = false;
 
-  std::unique_ptr<Pipeline> pipeline_;
+  /** The base pose of a topic (imu or base_pitch), kept per source. */
+  struct TopicPose
+  {
+    double pitch = 0.0, roll = 0.0;
+    ros::Time stamp;
+    bool valid = false;
+  };
+  std::mutex topic_mutex_;  // guards imu_pose_ and pitch_pose_
+  TopicPose imu_pose_, pitch_pose_;
+
+  // Only the frame callback touches these.
+  FramePipeline pipeline_;
   FrameResult result_;
   cv::Mat swap_buffer_;
   Camera camera_;
   bool last_pose_valid_ = false;
   SensorPose last_pose_{};
   double last_yaw_ = 0.0;
-  ros::Time last_pose_stamp_, last_stamp_;
+  ros::Time last_pose_stamp_, last_stamp_, last_clock_;
 
   diagnostic_updater::Updater diagnostics_;
   ros::WallTimer diagnostics_timer_;  // diagnostics keep coming when every frame is dropped
@@ -130,9 +149,12 @@ private:
   std::atomic<std::uint64_t> frames_in_{0}, frames_out_{0};
   std::array<std::uint64_t, static_cast<int>(DropReason::kCount)> drops_{};
   std::uint64_t pose_fallbacks_ = 0;
+  std::uint64_t params_refused_ = 0, clock_resets_ = 0, camera_changes_ = 0;
   std::string last_problem_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
   std::array<std::uint64_t, kNumLabels> label_totals_{};
+
+  std::unique_ptr<MasterReconnect> master_;  // last: its timer calls into the members above
 };
 
 }  // namespace kinect_pipeline
