@@ -102,6 +102,29 @@ class Calibration:
         return d
 
 
+def plot_calibration(metres: np.ndarray, camera: _core.Camera, result: Calibration, path: Path, name: str) -> None:
+    """The frame's depth and, under the calibrated pose, the floor the pipeline then removes (green): where the
+    calibration is right, the floor is green up to the walls and nothing stands on it."""
+    from .demo import plot_frame
+
+    cfg = _core.Config(
+        sensor_height=result.height,
+        sensor_pitch=result.pitch,
+        sensor_roll=result.roll,
+        ceiling_height=max(3.0, result.height + 0.5),
+    )
+    depth = np.where(np.isfinite(metres), metres, 0.0).astype(np.float32)
+    res = _core.Pipeline(camera, cfg).process(depth)
+    plot_frame(
+        depth,
+        res,
+        cfg.max_depth,
+        path,
+        f"{name}: height {result.height:.3f} m, pitch {math.degrees(result.pitch):+.2f} deg, "
+        f"roll {math.degrees(result.roll):+.2f} deg, floor {100 * result.floor_fraction:.0f} % of the pixels",
+    )
+
+
 def optical_quaternion(pitch: float, roll: float) -> tuple[float, float, float, float]:
     """The optical frame's orientation (x, y, z, w) in a z-up base frame for a sensor at pitch / roll."""
     body = (tuple(_core.quaternion_from_rpy(roll, pitch, 0.0)), (0.0, 0.0, 0.0))

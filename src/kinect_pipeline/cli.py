@@ -147,6 +147,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc
     d = result.as_dict(args.base_frame, args.optical_frame)
+    if args.plot and result.found:
+        from .calibrate import plot_calibration
+
+        plot_calibration(frames[0][1], cam, result, Path(args.plot), Path(frames[0][0]).name)
     if args.json:
         print(json.dumps(d, indent=1))
     elif result.found:
@@ -483,7 +487,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     c.add_argument("--depth-topic", help="with --bag: the depth Image topic (default: as replay)")
     c.add_argument("--base-frame-height", type=float, default=0.0, help="with --bag: base frame height [m]")
-    c.add_argument("--plot", help="with --bag: write a PNG of tf vs floor per frame")
+    c.add_argument(
+        "--plot",
+        help=(
+            "write a PNG: with frames, the first one's floor under the calibrated pose; "
+            "with --bag, tf vs floor per frame"
+        ),
+    )
     c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
     c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
     c.add_argument(

@@ -47,6 +47,19 @@ def test_recovers_the_true_pose(
     assert f"sensor_height:={d['height']:.4f}" in d["launch_args"]
 
 
+def test_plot_shows_the_floor_under_the_calibrated_pose(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = render_frame(CAM, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=7)
+    path, png = tmp_path / "f.png", tmp_path / "plot.png"
+    cv2.imwrite(str(path), f.depth)
+    rc, d, _ = run_cli(capsys, str(path), "--intrinsics", *INTR, "--plot", str(png))
+    assert rc == 0 and d["found"]
+    img = cv2.imread(str(png))
+    assert img is not None and img.shape[0] > 300 and img.shape[1] > 900
+    # The floor colour of the label panel covers about the floor fraction the calibration reports.
+    green = (img[:, :, 1] > 150) & (img[:, :, 0] < 80) & (img[:, :, 2] < 80)
+    assert green.any()
+
+
 def test_several_frames_average(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     paths = []
     for i in range(3):
