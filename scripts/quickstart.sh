@@ -20,6 +20,7 @@ APT_PACKAGES=(
   python3-opencv python3-pytest python3-matplotlib libdiagnostic-updater-dev libgeometry-msgs-dev
   python3-rosbag python3-roslaunch python3-rostopic python3-diagnostic-msgs python3-std-srvs rviz xvfb x11-apps
   imagemagick image-transport-tools
+  clang libclang-rt-14-dev libomp-14-dev
 )
 
 install_apt() {

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Runs every test of the package: C++ gtest (and rostest) through catkin, then pytest.
+# Runs every test of the package: C++ gtest (and rostest) through catkin, the core under ASan + UBSan, its
+# threaded paths under TSan, a short libFuzzer run of the C++ entry point, then pytest.
 # Expects the build from scripts/quickstart.sh; use 'bash scripts/quickstart.sh test' on a fresh machine.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -34,6 +35,56 @@ if [ "$san_status" -eq 0 ]; then
   [ "$san_status" -eq 0 ] || grep -E "ERROR|runtime error|FAILED" build/asan_run.log | head -20
 fi
 
+# OpenMP threads that sleep at once when idle (the sanitizer runs share a small machine).
+export OMP_WAIT_POLICY=passive KMP_BLOCKTIME=0
+echo "== threaded paths under ThreadSanitizer (clang, LLVM libomp + Archer) =="
+tsan_status=0
+rm -f build/tsan_results.xml
+if ! command -v clang++ >/dev/null; then
+  echo "clang++ not found: apt-get install clang libomp-14-dev libclang-rt-14-dev (scripts/quickstart.sh does)"
+  tsan_status=1
+fi
+if [ "$tsan_status" -eq 0 ] && [ ! -f build/tsan/Makefile ]; then
+  CC=clang CXX=clang++ cmake -S test/sanitize -B build/tsan -DKP_SANITIZER=thread >build/tsan_configure.log 2>&1 ||
+    { cat build/tsan_configure.log; tsan_status=1; }
+fi
+if [ "$tsan_status" -eq 0 ]; then
+  cmake --build build/tsan -j"$(nproc)" >build/tsan_build.log 2>&1 || { tail -30 build/tsan_build.log; tsan_status=1; }
+fi
+if [ "$tsan_status" -eq 0 ]; then
+  # libomp is not instrumented: Archer (loaded by libomp under TSan) supplies OpenMP's synchronisation, and
+  # ignore_noninstrumented_modules stops reports about memory touched inside libomp / OpenCV's TBB themselves
+  # (what LLVM's Archer asks for). Any report makes the run exit 66.
+  export TSAN_OPTIONS="ignore_noninstrumented_modules=1 exitcode=66 second_deadlock_stack=1"
+  build/tsan/test_core_tsan --gtest_output=xml:build/tsan_results.xml >build/tsan_run.log 2>&1 || tsan_status=$?
+  grep -E "^\[ info \]|PASSED|FAILED" build/tsan_run.log || true
+  [ "$tsan_status" -eq 0 ] || grep -E "WARNING: ThreadSanitizer|SUMMARY|FAILED" build/tsan_run.log | head -20
+  # The planted race must be reported, or this run proves nothing.
+  if build/tsan/test_core_tsan --gtest_filter='Threads.DISABLED_RaceCanary' --gtest_also_run_disabled_tests \
+    >build/tsan_canary.log 2>&1 || ! grep -q "WARNING: ThreadSanitizer: data race" build/tsan_canary.log; then
+    echo "TSan did not report the planted race (Threads.DISABLED_RaceCanary): the TSan set-up hides races"
+    tsan_status=1
+  else
+    echo "TSan reported the planted race, as it must"
+  fi
+  unset TSAN_OPTIONS
+fi
+
+echo "== C++ entry point under libFuzzer (short run; 'bash scripts/fuzz.sh' runs 100000) =="
+fuzz_status=0
+bash scripts/fuzz.sh "${KP_FUZZ_RUNS:-3000}" || fuzz_status=$?
+rm -f build/fuzz_results.xml
+/usr/bin/python3 - "$fuzz_status" <<'PY'
+import sys
+from xml.sax.saxutils import escape
+ok = sys.argv[1] == "0"
+log = open("build/fuzz_run.log", errors="replace").read()[-4000:] if not ok else ""
+body = "" if ok else f'<failure message="libFuzzer finding">{escape(log)}</failure>'
+with open("build/fuzz_results.xml", "w") as f:
+    f.write(f'<testsuites><testsuite name="libfuzzer" tests="1"><testcase name="fuzz_pipeline" classname="fuzz">'
+            f'{body}</testcase></testsuite></testsuites>')
+PY
+
 echo "== Python tests (pytest) =="
 py_status=0
 python3 -m pytest test/python -q -p no:cacheprovider --junitxml=build/pytest.xml || py_status=$?
@@ -43,7 +94,8 @@ import glob
 import xml.etree.ElementTree as ET
 counts = {"passed": 0, "failed": 0, "skipped": 0}
 totals = {"cpp": 0, "py": 0}
-for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + ["build/asan_results.xml", "build/pytest.xml"]:
+sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml"]
+for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + sanitizers + ["build/pytest.xml"]:
     try:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError):
@@ -60,6 +112,6 @@ print(counts["passed"], counts["failed"], counts["skipped"], totals["cpp"], tota
 PY
 )"
 echo "kinect_pipeline: $passed passed, $failed failed, $skipped skipped"
-if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
+if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$tsan_status" -ne 0 ] || [ "$fuzz_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
   exit 1
 fi

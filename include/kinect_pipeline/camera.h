@@ -14,6 +14,9 @@ namespace kinect_pipeline
  *
  * Pixel (u, v) with integer centres sees the ray direction ((u - cx) / fx, (v - cy) / fy, 1).
  */
+/** Largest image width or height a Camera accepts [px] (depth cameras have a few hundred to a few thousand). */
+constexpr int kMaxImageSide = 16384;
+
 struct Camera
 {
   int width = 0;    ///< image width [px]
@@ -48,7 +51,7 @@ struct Camera
   /**
    * @brief Checks the model.
    * @throw std::invalid_argument naming the field, its value and what was expected
-   *        (width/height >= 1, fx/fy finite and > 0, cx/cy finite).
+   *        (width/height in 1..kMaxImageSide, fx/fy in 0.01..1e6 px, |cx|, |cy| <= 1e6 px).
    */
   void validate() const;
 

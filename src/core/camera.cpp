@@ -9,13 +9,17 @@ namespace kinect_pipeline
 namespace
 {
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kMinFocal = 1e-2, kMaxFocal = 1e6;  // [px]
+constexpr double kMaxPrincipal = 1e6;                // [px]
 
 void requirePositiveSize(const char* name, int v)
 {
-  if (v < 1)
+  // The upper bound keeps a corrupt camera_info (a width of 2^29) from making the pipeline allocate gigabytes
+  // for its per-column terms (found by fuzzing, test/fuzz).
+  if (v < 1 || v > kMaxImageSide)
   {
     std::ostringstream s;
-    s << "Camera." << name << " = " << v << ": expected an image size >= 1 pixel";
+    s << "Camera." << name << " = " << v << ": expected an image size of 1 to " << kMaxImageSide << " pixels";
     throw std::invalid_argument(s.str());
   }
 }
@@ -68,13 +72,22 @@ void Camera::validate() const
         << ": expected a finite focal length > 0 px (a camera_info with K = 0 is uncalibrated)";
       throw std::invalid_argument(s.str());
     }
+    // Beyond these the field of view or the rays' slopes leave float range (found by fuzzing, test/fuzz).
+    if (v < kMinFocal || v > kMaxFocal)
+    {
+      std::ostringstream s;
+      s << "Camera." << name << " = " << v << ": expected a focal length of " << kMinFocal << " to " << kMaxFocal
+        << " px";
+      throw std::invalid_argument(s.str());
+    }
   }
   for (auto [name, v] : {std::pair<const char*, double>{"cx", cx}, {"cy", cy}})
   {
-    if (!std::isfinite(v))
+    if (!(std::isfinite(v) && std::fabs(v) <= kMaxPrincipal))
     {
       std::ostringstream s;
-      s << "Camera." << name << " = " << v << ": expected a finite principal point [px]";
+      s << "Camera." << name << " = " << v << ": expected a finite principal point within +-" << kMaxPrincipal
+        << " px";
       throw std::invalid_argument(s.str());
     }
   }

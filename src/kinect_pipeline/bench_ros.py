@@ -29,6 +29,7 @@ class Measurement:
     cpu_percent: float
     rss_start_mb: float = float("nan")
     rss_end_mb: float = float("nan")
+    rss_trace_mb: list[float] | None = None  # one value a minute while frames flow
 
     def row(self, relay: Measurement | None) -> str:
         med, p99 = np.median(self.latencies_ms), np.percentile(self.latencies_ms, 99)
@@ -171,7 +172,7 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
             ),
         ]
         for name, cmd, topic, msg_type in subjects:
-            if only is not None and only not in name:
+            if only is not None and not name.endswith(" " + only):
                 continue
             lat: list[float] = []
             lock = threading.Lock()
@@ -205,12 +206,17 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
                 cpu0, t0 = _cpu_seconds(pids), time.monotonic()
                 rss0 = _rss_mb(pids)
                 next_t = time.monotonic()
+                trace = [rss0]
+                next_sample = next_t + 60.0
                 for _ in range(frames):
                     stamp = rospy.get_rostime()
                     img.header.stamp = info.header.stamp = stamp
                     info_pub.publish(info)
                     image_pub.publish(img)
                     next_t += period
+                    if next_t >= next_sample:
+                        trace.append(_rss_mb(pids))
+                        next_sample += 60.0
                     time.sleep(max(0.0, next_t - time.monotonic()))
                 end = time.monotonic() + 2.0
                 while time.monotonic() < end:
@@ -221,7 +227,7 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
                 cpu = (_cpu_seconds(pids) - cpu0) / (time.monotonic() - t0) * 100.0
                 rss1 = _rss_mb(pids)
                 with lock:
-                    results.append(Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1))
+                    results.append(Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1, [*trace, rss1]))
             finally:
                 sub.unregister()
                 _stop(proc)
@@ -252,4 +258,7 @@ def soak_report(results: list[Measurement]) -> str:
             f"{np.median(r.latencies_ms):.3f} | {np.percentile(r.latencies_ms, 99):.3f} | "
             f"{r.rss_start_mb:.1f} | {r.rss_end_mb:.1f} |"
         )
+    for r in results:
+        if r.rss_trace_mb:
+            lines.append(f"\n{r.name}: RSS each minute [MB]: " + " ".join(f"{v:.1f}" for v in r.rss_trace_mb))
     return "\n".join(lines)

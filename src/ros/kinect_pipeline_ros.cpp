@@ -197,10 +197,24 @@ void KinectPipelineRos::pitchCb(const std_msgs::Float64ConstPtr& msg)
 
 void KinectPipelineRos::drop(DropReason reason, const std::string& message)
 {
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  ++drops_[static_cast<int>(reason)];
-  last_problem_ = message;
-  ROS_ERROR_THROTTLE(5.0, "%s: frame dropped (%s): %s", name_.c_str(), toString(reason), message.c_str());
+  // Throttled per reason (one line per reason every 5 s), so that one bad input does not hide another.
+  const int i = static_cast<int>(reason);
+  std::uint64_t count = 0;
+  bool say = false;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    count = ++drops_[i];
+    last_problem_ = std::string(toString(reason)) + ": " + message;
+    const ros::WallTime now = ros::WallTime::now();
+    if (last_drop_log_[i].isZero() || (now - last_drop_log_[i]).toSec() >= 5.0)
+    {
+      last_drop_log_[i] = now;
+      say = true;
+    }
+  }
+  if (say)
+    ROS_ERROR("%s: frame dropped (%s): %s [%llu dropped for this reason so far]", name_.c_str(), toString(reason),
+              message.c_str(), static_cast<unsigned long long>(count));
 }
 
 bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& header, SensorPose& pose, double& yaw,

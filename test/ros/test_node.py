@@ -9,7 +9,7 @@ import sys
 import threading
 import time
 import unittest
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import rospy
@@ -18,6 +18,7 @@ import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
 from dynamic_reconfigure.client import Client
 from geometry_msgs.msg import Quaternion, TransformStamped
+from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
 
 import kinect_pipeline as kp
@@ -79,7 +80,7 @@ def info_msg(cam: kp.Camera, stamp: rospy.Time) -> CameraInfo:
 
 
 class Feeder:
-    """Publishes tf then image + camera_info at 15 Hz with whatever pose / image the test sets."""
+    """Publishes tf then image + camera_info at 15 Hz with whatever pose / image / frame the test sets."""
 
     def __init__(self) -> None:
         self.image_pub = rospy.Publisher("/kinect2/sd/image_depth", Image, queue_size=5)
@@ -92,6 +93,10 @@ class Feeder:
         self.depth = render_frame(CAM, boxes_scene(), HEIGHT, TILT, 0.0, "16UC1", seed=None).depth
         self.encoding = "16UC1"
         self.cam = CAM
+        self.frame_id = "kinect2_depth_optical_frame"
+        self.tf_frames = {"kinect2_depth_optical_frame"}  # optical frames whose transform is broadcast
+        self.paused = False
+        self.stamps: list[rospy.Time] = []  # stamps for the next frames instead of now (zero, out of order)
         self.sent: list[rospy.Time] = []
         self.stop = False
         self.thread = threading.Thread(target=self.run, daemon=True)
@@ -100,29 +105,43 @@ class Feeder:
     def run(self) -> None:
         rate = rospy.Rate(15)
         while not self.stop and not rospy.is_shutdown():
-            stamp = rospy.Time.now()
+            now = rospy.Time.now()
             with self.lock:
-                t = TransformStamped()
-                t.header.stamp = stamp
-                t.header.frame_id = "base_footprint"
-                t.child_frame_id = "kinect2_depth_optical_frame"
-                t.transform.translation.x = 0.1
-                t.transform.translation.z = HEIGHT
-                t.transform.rotation = optical_quaternion(self.pitch)
-                self.tf.sendTransform(t)
+                if self.paused:
+                    rate.sleep()
+                    continue
+                stamp = self.stamps.pop(0) if self.stamps else now
+                frame_id = self.frame_id
+                for child in sorted(self.tf_frames):
+                    t = TransformStamped()
+                    t.header.stamp = now
+                    t.header.frame_id = "base_footprint"
+                    t.child_frame_id = child
+                    t.transform.translation.x = 0.1
+                    t.transform.translation.z = HEIGHT
+                    t.transform.rotation = optical_quaternion(self.pitch)
+                    self.tf.sendTransform(t)
                 if self.imu_pitch is not None:
                     imu = Imu()
                     imu.header.stamp = stamp
-                    q = quaternion_from_matrix(np.array([[math.cos(self.imu_pitch), 0, math.sin(self.imu_pitch), 0],
-                                                         [0, 1, 0, 0],
-                                                         [-math.sin(self.imu_pitch), 0, math.cos(self.imu_pitch), 0],
-                                                         [0, 0, 0, 1]]))
+                    q = quaternion_from_matrix(
+                        np.array(
+                            [
+                                [math.cos(self.imu_pitch), 0, math.sin(self.imu_pitch), 0],
+                                [0, 1, 0, 0],
+                                [-math.sin(self.imu_pitch), 0, math.cos(self.imu_pitch), 0],
+                                [0, 0, 0, 1],
+                            ]
+                        )
+                    )
                     imu.orientation = Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])
                     self.imu_pub.publish(imu)
                 depth, encoding, cam = self.depth, self.encoding, self.cam
             time.sleep(0.005)  # let tf arrive before the image (the node also waits tf_timeout)
-            self.info_pub.publish(info_msg(cam, stamp))
-            self.image_pub.publish(depth_msg(depth, stamp, encoding))
+            info, image = info_msg(cam, stamp), depth_msg(depth, stamp, encoding)
+            info.header.frame_id = image.header.frame_id = frame_id
+            self.info_pub.publish(info)
+            self.image_pub.publish(image)
             self.sent.append(stamp)
             rate.sleep()
 
@@ -132,11 +151,13 @@ class NodeTest(unittest.TestCase):
     scans: list[LaserScan]
     images: list[Image]
     diags: list[DiagnosticArray]
+    logs: list[Log]
 
     @classmethod
     def setUpClass(cls) -> None:
         rospy.init_node("kinect_pipeline_test", anonymous=True)
-        cls.scans, cls.images, cls.diags = [], [], []
+        cls.scans, cls.images, cls.diags, cls.logs = [], [], [], []
+        rospy.Subscriber("/rosout", Log, cls.logs.append, queue_size=200)
         rospy.Subscriber("/kinect2/scan", LaserScan, cls.scans.append, queue_size=50)
         rospy.Subscriber("/kinect2/sd/image_depth/processed", Image, cls.images.append, queue_size=50)
         rospy.Subscriber("/diagnostics", DiagnosticArray, cls.diags.append, queue_size=50)
@@ -159,9 +180,38 @@ class NodeTest(unittest.TestCase):
         self.wait_for("a scan stamped after the change", lambda: any(s.header.stamp > t for s in self.scans))
         return next(s for s in self.scans if s.header.stamp > t)
 
-    def expected(self, pitch: float, **cfg: object) -> kp.Result:
-        pipe = kp.Pipeline(CAM, kp.Config(sensor_height=HEIGHT, sensor_pitch=pitch, **cfg))
-        return pipe.process(self.feeder.depth)
+    def expected(self, pitch: float, cam: kp.Camera = CAM, depth: np.ndarray | None = None, **cfg: object) -> kp.Result:
+        pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=pitch, **cfg))
+        return pipe.process(self.feeder.depth if depth is None else depth)
+
+    def counter(self, key: str, after: rospy.Time | None = None) -> int:
+        """The node's newest diagnostics value ``key`` (published after ``after``), -1 if none yet."""
+        for d in reversed(list(self.diags)):
+            if after is not None and d.header.stamp <= after:
+                break
+            for st in d.status:
+                for kv in st.values:
+                    if kv.key == key:
+                        return int(kv.value)
+        return -1
+
+    def wait_count_above(self, key: str, before: int) -> int:
+        t = rospy.Time.now()
+        self.wait_for(f"diagnostics counting '{key}' above {before}", lambda: self.counter(key, t) > before)
+        return self.counter(key, t)
+
+    def current(self, key: str) -> int:
+        """A diagnostics counter as of now (waits for diagnostics published after this call)."""
+        t = rospy.Time.now()
+        self.wait_for(f"diagnostics with '{key}'", lambda: self.counter(key, t) >= 0)
+        return self.counter(key, t)
+
+    def node_errors(self, text: str, after: rospy.Time) -> list[str]:
+        return [
+            m.msg
+            for m in list(self.logs)
+            if m.level >= Log.ERROR and m.header.stamp > after and text in m.msg and "kinect_pipeline" in m.name + m.msg
+        ]
 
     def assert_scan_equal(self, scan: LaserScan, res: kp.Result) -> None:
         got = np.array(scan.ranges, dtype=np.float32)
@@ -248,6 +298,132 @@ class NodeTest(unittest.TestCase):
             self.feeder.depth, self.feeder.encoding, self.feeder.cam = good, "16UC1", CAM
         t = rospy.Time.now()
         self.assert_scan_equal(self.scan_after(t), self.expected(TILT))
+
+    def test_7_zero_and_out_of_order_stamps_are_dropped_counted_and_said(self) -> None:
+        zero0, order0 = self.current("dropped: zero stamp"), self.current("dropped: stamp out of order")
+        t = rospy.Time.now()
+        with self.feeder.lock:
+            old = rospy.Time.now() - rospy.Duration(2.0)
+            self.feeder.stamps = [rospy.Time(0), rospy.Time(0), old, rospy.Time(0), old - rospy.Duration(1.0)]
+        zero = self.wait_count_above("dropped: zero stamp", zero0 + 2)
+        order = self.wait_count_above("dropped: stamp out of order", order0 + 1)
+        self.assertEqual(zero, zero0 + 3)
+        self.assertEqual(order, order0 + 2)
+        # One clear line per reason (throttled: 5 bad frames within a second give one line each), naming the value.
+        self.wait_for("the zero-stamp error on /rosout", lambda: bool(self.node_errors("(zero stamp)", t)))
+        self.wait_for("the out-of-order error on /rosout", lambda: bool(self.node_errors("(stamp out of order)", t)))
+        zero_lines = self.node_errors("(zero stamp)", t)
+        order_lines = self.node_errors("(stamp out of order)", t)
+        self.assertEqual(len(zero_lines), 1, zero_lines)
+        self.assertEqual(len(order_lines), 1, order_lines)
+        self.assertIn("image stamp is 0", zero_lines[0])
+        self.assertIn(f"stamp {old.secs}.", order_lines[0])
+        self.assertIn("is not newer than the previous frame's", order_lines[0])
+        # Good frames go on being served.
+        self.assert_scan_equal(self.scan_after(rospy.Time.now()), self.expected(TILT))
+
+    def test_8_camera_changing_resolution_is_followed(self) -> None:
+        size0 = self.current("dropped: image size differs from camera_info")
+        changes0 = self.current("camera model changes")
+        half = kp.Camera(256, 212, CAM.fx / 2, CAM.fy / 2, 127.5, 105.5)
+        small = render_frame(half, boxes_scene(), HEIGHT, TILT, 0.0, "16UC1", seed=None).depth
+        big = self.feeder.depth
+        for cam, depth in ((half, small), (CAM, big)):
+            with self.feeder.lock:
+                self.feeder.depth, self.feeder.cam = depth, cam
+            t = rospy.Time.now() + rospy.Duration(0.1)
+            self.wait_for(
+                f"a scan of {cam.width} beams",
+                lambda t=t, w=cam.width: any(s.header.stamp > t and len(s.ranges) == w for s in self.scans),
+            )
+            scan = next(s for s in self.scans if s.header.stamp > t and len(s.ranges) == cam.width)
+            self.assert_scan_equal(scan, self.expected(TILT, cam=cam, depth=depth))
+        self.assertGreaterEqual(self.wait_count_above("camera model changes", changes0 + 1), changes0 + 2)
+        # camera_info and image changed together: nothing was dropped for disagreeing sizes.
+        self.assertEqual(self.current("dropped: image size differs from camera_info"), size0)
+
+    def test_9_tf_appearing_late_falls_back_then_is_used(self) -> None:
+        fallbacks0 = self.current("pose fallbacks")
+        with self.feeder.lock:
+            self.feeder.frame_id = "kinect2_late_optical_frame"  # no transform for it yet
+        self.wait_count_above("pose fallbacks", fallbacks0)
+        # pose_fallback: static -> the launch file's static pose (sensor_height 1.1, sensor_pitch 0).
+        self.assert_scan_equal(self.scan_after(rospy.Time.now()), self.expected(0.0))
+        with self.feeder.lock:
+            self.feeder.tf_frames.add("kinect2_late_optical_frame")
+        t = rospy.Time.now()
+        self.wait_for(
+            "a scan at the tf pose once tf appeared",
+            lambda: any(s.header.stamp > t and self.same_scan(s, self.expected(TILT)) for s in self.scans),
+        )
+        with self.feeder.lock:
+            self.feeder.frame_id = "kinect2_depth_optical_frame"
+            self.feeder.tf_frames.discard("kinect2_late_optical_frame")
+
+    def same_scan(self, scan: LaserScan, res: kp.Result) -> bool:
+        try:
+            self.assert_scan_equal(scan, res)
+        except AssertionError:
+            return False
+        return True
+
+    def test_a_inputs_stopping_and_resuming(self) -> None:
+        with self.feeder.lock:
+            self.feeder.paused = True
+        t = rospy.Time.now()
+
+        def silence_reported() -> bool:
+            for d in list(self.diags):
+                if d.header.stamp > t:
+                    for st in d.status:
+                        if "No events" in st.message or "too low" in st.message:
+                            return True
+            return False
+
+        self.wait_for("diagnostics reporting that no image comes", silence_reported)
+        with self.feeder.lock:
+            self.feeder.paused = False
+        self.assert_scan_equal(self.scan_after(rospy.Time.now()), self.expected(TILT))
+
+    def test_b_reconfigure_at_100hz_while_frames_flow(self) -> None:
+        configs = [{"range_max": 4.0, "scan_beams": 128}, {"range_max": 8.0, "scan_beams": 256}]
+        want = {(c["scan_beams"], c["range_max"]): self.expected(TILT, **c) for c in configs}
+        want[(512, 10.0)] = self.expected(TILT)
+        n_before = len(self.scans)
+        errors: list[str] = []
+        counts = [0, 0]
+
+        def hammer(i: int) -> None:
+            # Two clients at 50 Hz each, one per config: 100 changes a second reach the node's server.
+            client = Client(NODE, timeout=DEADLINE)
+            next_t = time.monotonic()
+            while counts[i] < 150 and not rospy.is_shutdown():
+                try:
+                    client.update_configuration(configs[i])
+                except Exception as e:
+                    errors.append(repr(e))
+                counts[i] += 1
+                next_t += 0.02
+                time.sleep(max(0.0, next_t - time.monotonic()))
+
+        t0 = time.monotonic()
+        threads = [threading.Thread(target=hammer, args=(i,)) for i in range(2)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+        rate = sum(counts) / (time.monotonic() - t0)
+        print(f"[ info ] {sum(counts)} dynamic_reconfigure updates at {rate:.0f} Hz", file=sys.stderr)
+        self.assertEqual(errors, [])
+        self.reconfigure(range_max=10.0, scan_beams=0)
+        t = rospy.Time.now()
+        self.assert_scan_equal(self.scan_after(t), self.expected(TILT))
+        during = list(self.scans)[n_before:]
+        self.assertGreater(len(during), 5)
+        for scan in during:
+            key = (len(scan.ranges), round(scan.range_max, 3))
+            self.assertIn(key, want, f"scan with {key[0]} beams and range_max {key[1]}: not one config")
+            self.assert_scan_equal(scan, want[key])
 
 
 if __name__ == "__main__":

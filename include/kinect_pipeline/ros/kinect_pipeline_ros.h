@@ -148,6 +148,7 @@ private:
   std::mutex stats_mutex_;
   std::atomic<std::uint64_t> frames_in_{0}, frames_out_{0};
   std::array<std::uint64_t, static_cast<int>(DropReason::kCount)> drops_{};
+  std::array<ros::WallTime, static_cast<int>(DropReason::kCount)> last_drop_log_{};
   std::uint64_t pose_fallbacks_ = 0;
   std::uint64_t params_refused_ = 0, clock_resets_ = 0, camera_changes_ = 0;
   std::string last_problem_;

@@ -1,0 +1,330 @@
+// libFuzzer target of the C++ core (clang -fsanitize=fuzzer,address,undefined; see test/fuzz/CMakeLists.txt and
+// scripts/fuzz.sh). The input bytes decide a camera model, a config (every field, the threshold curve as control
+// points or as text), an image (type, size, stride, contents), poses and the calls made: construct, process a few
+// frames, change config or camera between frames, reset, calibrate. Documented failures are std::invalid_argument
+// (or a subclass); any other exception, a crash, a sanitizer report or a broken output invariant is a finding.
+#include <fuzzer/FuzzedDataProvider.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <typeinfo>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "kinect_pipeline/calibration.h"
+#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/settings_exchange.h"
+#include "kinect_pipeline/threshold_curve.h"
+
+using namespace kinect_pipeline;
+
+namespace
+{
+[[noreturn]] void finding(const std::string& what)
+{
+  std::fprintf(stderr, "FINDING: %s\n", what.c_str());
+  std::abort();
+}
+
+void check(bool ok, const char* what)
+{
+  if (!ok)
+    finding(std::string("output invariant broken: ") + what);
+}
+
+/** Mostly plausible values, sometimes anything a double can be (0, negative, huge, NaN, Inf). */
+double number(FuzzedDataProvider& in, double lo, double hi)
+{
+  switch (in.ConsumeIntegralInRange<int>(0, 15))
+  {
+    case 0:
+      return std::numeric_limits<double>::quiet_NaN();
+    case 1:
+      return in.ConsumeBool() ? std::numeric_limits<double>::infinity() : -std::numeric_limits<double>::infinity();
+    case 2:
+      return 0.0;
+    case 3:
+      return in.ConsumeFloatingPoint<double>();
+    case 4:
+      return -in.ConsumeFloatingPointInRange<double>(lo, hi);
+    default:
+      return in.ConsumeFloatingPointInRange<double>(lo, hi);
+  }
+}
+
+int integer(FuzzedDataProvider& in, int lo, int hi)
+{
+  return in.ConsumeIntegralInRange<int>(0, 15) == 0 ? in.ConsumeIntegral<int>() : in.ConsumeIntegralInRange<int>(lo, hi);
+}
+
+Camera camera(FuzzedDataProvider& in)
+{
+  Camera c;
+  c.width = integer(in, 1, 48);
+  c.height = integer(in, 1, 48);
+  c.fx = number(in, 1.0, 200.0);
+  c.fy = in.ConsumeBool() ? c.fx : number(in, 1.0, 200.0);
+  c.cx = in.ConsumeBool() ? (static_cast<double>(c.width) - 1.0) / 2.0 : number(in, -10.0, 60.0);
+  c.cy = in.ConsumeBool() ? (static_cast<double>(c.height) - 1.0) / 2.0 : number(in, -10.0, 60.0);
+  return c;
+}
+
+Config config(FuzzedDataProvider& in)
+{
+  Config k;
+  if (in.ConsumeBool())
+    return k;  // the defaults, often
+  k.sensor_height = number(in, 0.05, 3.0);
+  k.sensor_pitch = number(in, -1.6, 1.6);
+  k.sensor_roll = number(in, -1.6, 1.6);
+  k.ceiling_height = number(in, 0.1, 5.0);
+  k.max_depth = number(in, 0.1, 20.0);
+  k.geometry = in.ConsumeBool() ? Geometry::kExact : Geometry::kThesis;
+  k.projection = in.ConsumeBool() ? Projection::kHorizontal : Projection::kColumn;
+  k.open_kernel_size = integer(in, 0, 9);
+  k.open_kernel_shape = static_cast<KernelShape>(in.ConsumeIntegralInRange<int>(0, 2));
+  if (in.ConsumeBool())
+  {
+    const std::string text = in.ConsumeRandomLengthString(64);
+    k.threshold_curve = parseThresholdCurve(text);  // may throw invalid_argument: documented
+  }
+  else if (in.ConsumeBool())
+  {
+    k.threshold_curve.clear();
+    const int n = in.ConsumeIntegralInRange<int>(0, 6);
+    for (int i = 0; i < n; ++i)
+      k.threshold_curve.push_back({number(in, 0.1, 12.0), number(in, 0.001, 1.0)});
+  }
+  k.range_min = number(in, 0.0, 2.0);
+  k.range_max = number(in, 0.5, 12.0);
+  k.scan_beams = integer(in, 0, 300);
+  k.scan_fov = number(in, 0.0, 6.3);
+  k.confidence_window = integer(in, 0, 8);
+  k.confidence_distance = number(in, 0.001, 1.0);
+  k.min_intensity = number(in, 0.0, 1.0);
+  k.intensity_filter = in.ConsumeBool();
+  k.num_threads = integer(in, 0, 3);
+  return k;
+}
+
+/** An image of the decoded type; its size follows the camera unless the input says otherwise. */
+cv::Mat image(FuzzedDataProvider& in, const Camera& cam, int& type)
+{
+  static const int kTypes[] = {CV_8UC1, CV_16UC1, CV_32FC1, CV_8UC3, CV_64FC1, CV_16SC1};
+  type = in.ConsumeIntegralInRange<int>(0, 15) == 0 ? kTypes[in.ConsumeIntegralInRange<int>(3, 5)]
+                                                    : kTypes[in.ConsumeIntegralInRange<int>(0, 2)];
+  int w = cam.width, h = cam.height;
+  if (w < 1 || w > 48 || h < 1 || h > 48 || in.ConsumeIntegralInRange<int>(0, 15) == 0)
+  {
+    w = in.ConsumeIntegralInRange<int>(0, 48);
+    h = in.ConsumeIntegralInRange<int>(0, 48);
+  }
+  if (w == 0 || h == 0)
+    return cv::Mat(h, w, type);
+  // Sometimes a crop of a larger image: rows not contiguous with each other (any row step).
+  const int pad = in.ConsumeBool() ? in.ConsumeIntegralInRange<int>(1, 5) : 0;
+  cv::Mat big(h + pad, w + pad, type, cv::Scalar::all(0));
+  cv::Mat m = big(cv::Rect(pad, pad / 2, w, h));
+  const std::size_t row_bytes = static_cast<std::size_t>(w) * m.elemSize();
+  const int fill = in.ConsumeIntegralInRange<int>(0, 3);  // 0: the bytes as they come; else a scene-like ramp
+  for (int r = 0; r < h; ++r)
+  {
+    std::uint8_t* p = m.ptr<std::uint8_t>(r);
+    if (fill == 0)
+    {
+      const std::vector<std::uint8_t> bytes = in.ConsumeBytes<std::uint8_t>(row_bytes);
+      std::copy(bytes.begin(), bytes.end(), p);
+    }
+    else
+    {
+      for (int u = 0; u < w; ++u)
+      {
+        const double metres = 0.5 + 6.0 * (h - r) / h + 0.01 * in.ConsumeIntegralInRange<int>(-20, 20);
+        if (type == CV_8UC1)
+          m.at<std::uint8_t>(r, u) = static_cast<std::uint8_t>(std::min(255.0, metres / 12.0 * 255.0));
+        else if (type == CV_16UC1)
+          m.at<std::uint16_t>(r, u) = static_cast<std::uint16_t>(metres * 1000.0);
+        else if (type == CV_32FC1)
+          m.at<float>(r, u) = static_cast<float>(fill == 3 && (u + r) % 7 == 0 ? number(in, 0.0, 10.0) : metres);
+      }
+    }
+  }
+  return m;
+}
+
+void checkResult(const FrameResult& r, const cv::Mat& depth, const Pipeline& p)
+{
+  check(r.depth.size() == depth.size() && r.depth.type() == depth.type(), "cleaned depth has the input's size/type");
+  check(r.labels.size() == depth.size() && r.labels.type() == CV_8UC1, "labels are CV_8UC1 of the input's size");
+  std::uint64_t total = 0;
+  for (auto n : r.counts)
+    total += n;
+  check(total == static_cast<std::uint64_t>(depth.total()), "label counts add up to the pixels");
+  for (int y = 0; y < r.labels.rows; ++y)
+    for (int x = 0; x < r.labels.cols; ++x)
+      check(r.labels.at<std::uint8_t>(y, x) < kNumLabels, "labels are 0..4");
+  check(r.scan.ranges.size() == r.scan.intensities.size(), "one intensity per range");
+  check(static_cast<int>(r.scan.ranges.size()) == p.projector().beams(), "one range per beam");
+  for (float i : r.scan.intensities)
+    check(i >= 0.0f && i <= 1.0f, "intensities within [0, 1]");
+  for (float v : r.scan.ranges)
+    check(std::isnan(v) || std::isinf(v) || (v >= r.scan.range_min && v <= r.scan.range_max),
+          "finite ranges within [range_min, range_max]");
+}
+
+SensorPose pose(FuzzedDataProvider& in)
+{
+  return SensorPose{number(in, 0.05, 3.0), number(in, -1.6, 1.6), number(in, -1.6, 1.6)};
+}
+
+void run(FuzzedDataProvider& in)
+{
+  const int what = in.ConsumeIntegralInRange<int>(0, 9);
+  if (what == 0)
+  {
+    // The threshold curve's text form, round trip.
+    const std::vector<CurvePoint> c = parseThresholdCurve(in.ConsumeRandomLengthString(128));
+    validateThresholdCurve(c);
+    const std::vector<CurvePoint> back = parseThresholdCurve(formatThresholdCurve(c));
+    check(back.size() == c.size(), "a formatted curve parses into as many points");
+    return;
+  }
+  if (what == 1)
+  {
+    // A transform (tf) to a pose, then a frame at it: a pose out of range is refused, not used.
+    RigidTransform t;
+    for (double& q : t.q)
+      q = number(in, -1.0, 1.0);
+    for (double& x : t.t)
+      x = number(in, -2.0, 2.0);
+    double yaw = 0.0;
+    const SensorPose sp = poseFromOpticalTransform(t, number(in, -1.0, 1.0), yaw);
+    const Camera cam(32, 24, 30.0, 30.0, 15.5, 11.5);
+    Pipeline p(cam, Config());
+    FrameResult r;
+    const cv::Mat depth(24, 32, CV_16UC1, cv::Scalar(1500));
+    p.process(depth, sp, r);
+    checkResult(r, depth, p);
+    return;
+  }
+  if (what == 2)
+  {
+    // Floor calibration of an arbitrary float frame.
+    const Camera cam = camera(in);
+    int type = 0;
+    const cv::Mat depth = image(in, cam, type);
+    CalibrationOptions o;
+    o.iterations = in.ConsumeIntegralInRange<int>(1, 50);
+    o.stride = in.ConsumeIntegralInRange<int>(1, 3);
+    const FloorPose fp = calibrateFromFloor(depth, cam, o);
+    check(!fp.found || (std::isfinite(fp.height) && std::isfinite(fp.pitch) && std::isfinite(fp.roll)),
+          "a found floor has a finite pose");
+    return;
+  }
+  // The pipeline: construct, then a few frames with changes between them.
+  const Camera cam = camera(in);
+  const Config cfg = config(in);
+  if (std::getenv("KP_FUZZ_VERBOSE"))  // to see what an artifact decodes to
+    std::fprintf(stderr, "camera %s; config: height %g pitch %g roll %g ceiling %g max_depth %g geometry %s "
+                 "projection %s kernel %d %s curve '%s' range %g..%g beams %d fov %g window %d distance %g "
+                 "min_intensity %g filter %d threads %d\n",
+                 cam.describe().c_str(), cfg.sensor_height, cfg.sensor_pitch, cfg.sensor_roll, cfg.ceiling_height,
+                 cfg.max_depth, toString(cfg.geometry).c_str(), toString(cfg.projection).c_str(),
+                 cfg.open_kernel_size, toString(cfg.open_kernel_shape).c_str(),
+                 formatThresholdCurve(cfg.threshold_curve).c_str(), cfg.range_min, cfg.range_max, cfg.scan_beams,
+                 cfg.scan_fov, cfg.confidence_window, cfg.confidence_distance, cfg.min_intensity,
+                 cfg.intensity_filter, cfg.num_threads);
+  Pipeline p(cam, cfg);
+  FramePipeline fp;
+  auto shared = std::make_shared<const Config>(cfg);
+  FrameResult r;
+  const int frames = in.ConsumeIntegralInRange<int>(1, 4);
+  for (int f = 0; f < frames && in.remaining_bytes() > 0; ++f)
+  {
+    int type = 0;
+    const cv::Mat depth = image(in, p.camera(), type);
+    try
+    {
+      switch (in.ConsumeIntegralInRange<int>(0, 3))
+      {
+        case 0:
+        {
+          const double pitch = number(in, -0.5, 0.5), roll = number(in, -0.5, 0.5);
+          if (std::getenv("KP_FUZZ_VERBOSE"))
+            std::fprintf(stderr, "frame %d: %dx%d type %d, base pitch %g roll %g\n", f, depth.cols, depth.rows, type,
+                         pitch, roll);
+          p.process(depth, pitch, roll, r);
+          checkResult(r, depth, p);
+          break;
+        }
+        case 1:
+        {
+          const SensorPose sp = pose(in);
+          if (std::getenv("KP_FUZZ_VERBOSE"))
+            std::fprintf(stderr, "frame %d: %dx%d type %d, pose %g %g %g\n", f, depth.cols, depth.rows, type,
+                         sp.height, sp.pitch, sp.roll);
+          p.process(depth, sp, r);
+          checkResult(r, depth, p);
+          break;
+        }
+        case 2:
+          fp.process(shared, p.camera(), depth, pose(in), r);
+          break;
+        default:
+          p.reset();
+          break;
+      }
+    }
+    catch (const std::invalid_argument&)
+    {
+      // Documented: a bad frame changes nothing; the next one is processed.
+    }
+    try
+    {
+      const int change = in.ConsumeIntegralInRange<int>(0, 3);
+      if (change == 1)
+      {
+        const Config next = config(in);
+        p.setConfig(next);
+        shared = std::make_shared<const Config>(next);
+      }
+      else if (change == 2)
+        p.setCamera(camera(in));
+    }
+    catch (const std::invalid_argument&)
+    {
+    }
+  }
+}
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size)
+{
+  FuzzedDataProvider in(data, size);
+  try
+  {
+    run(in);
+  }
+  catch (const std::invalid_argument&)
+  {
+    // Documented for bad cameras, configs, curves, images and poses.
+  }
+  catch (const std::exception& e)
+  {
+    finding(std::string("undocumented exception ") + typeid(e).name() + ": " + e.what());
+  }
+  catch (...)
+  {
+    finding("an exception of unknown type");
+  }
+  return 0;
+}
