@@ -2,7 +2,7 @@
 // 1 and 2 threads, next to a memcpy of the same frame measured in the same run, and their ratio.
 // Also counts heap allocations per frame in steady state (global operator new is counted here).
 //
-//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--markdown]
+//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--markdown]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -60,6 +60,7 @@ Scene labScene()
 int main(int argc, char** argv)
 {
   int frames = 300, kernel = 3;
+  std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
   bool markdown = false;
   for (int i = 1; i < argc; ++i)
@@ -73,9 +74,26 @@ int main(int argc, char** argv)
       projection = argv[++i];
     else if (a == "--markdown")
       markdown = true;
+    else if (a == "--threads" && i + 1 < argc)
+    {
+      // A comma-separated list, e.g. 1,2,4,8,16; the first is the speed-up's reference.
+      thread_counts.clear();
+      for (std::string t = argv[++i]; !t.empty();)
+      {
+        const std::size_t comma = t.find(',');
+        const int n = std::atoi(t.substr(0, comma).c_str());
+        if (n < 1 || n > 1024)
+        {
+          std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.substr(0, comma).c_str());
+          return 2;
+        }
+        thread_counts.push_back(n);
+        t = comma == std::string::npos ? "" : t.substr(comma + 1);
+      }
+    }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -100,7 +118,7 @@ int main(int argc, char** argv)
     const cv::Mat frame = encodeDepth(metres, type, 12.0);
     cv::Mat copy(frame.size(), frame.type());
     const std::size_t bytes = frame.total() * frame.elemSize();
-    for (const int threads : {1, 2})
+    for (const int threads : thread_counts)
     {
       Config cfg;
       cfg.sensor_height = height;
@@ -153,7 +171,7 @@ int main(int argc, char** argv)
   for (std::size_t i = 0; i < rows.size(); ++i)
   {
     const Row& r = rows[i];
-    const double one = rows[i - (r.threads == 2 ? 1 : 0)].total;
+    const double one = rows[i - i % thread_counts.size()].total;  // this encoding's first thread count
     const double speedup = one / r.total;
     if (markdown)
       std::printf("| %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.2f | %.1f |\n", r.enc.c_str(), r.threads,

@@ -90,6 +90,11 @@ struct Config
   int scan_beams = 0;       ///< number of beams; 0 = the image width
   double scan_fov = 0.0;    ///< angular width of the scan [rad], centred on forward; 0 = the camera's
 
+  /// Negative obstacles (pixels more than t(d) below the floor: a hole, a stair down, a dock edge).
+  bool cliff_scan = true;      ///< fill FrameResult::cliff: nearest below-floor pixel per beam
+  bool cliff_in_scan = false;  ///< also put below-floor beams into the main scan as obstacles
+  int cliff_min_pixels = 3;    ///< below-floor pixels a beam needs before it reports a cliff [px], >= 1
+
   int confidence_window = 5;         ///< N: ranges in each beam's rolling mean (incl. the current one)
   double confidence_distance = 0.3;  ///< d_threshold of eq 4.23 [m]
   double min_intensity = 0.2;        ///< intensity at or below which a filtered beam becomes NaN

@@ -56,6 +56,12 @@ struct FrameResult
   cv::Mat depth;   ///< cleaned depth, the input's type; removed pixels: 255 (8-bit), 0 (16UC1), NaN (32FC1)
   cv::Mat labels;  ///< CV_8UC1, see Label
   ScanData scan;
+  /**
+   * Negative obstacles (Config::cliff_scan): per beam of `scan`, the horizontal range of the nearest pixel
+   * labelled kBelowFloor, if at least cliff_min_pixels of them fall in the beam; +Inf none, NaN outside what
+   * the image sees; no intensities. Empty when cliff_scan is off.
+   */
+  ScanData cliff;
   std::array<std::uint64_t, kNumLabels> counts{};  ///< pixels per label
   StageTimes times;
 };
@@ -126,6 +132,7 @@ private:
   bool lut_valid_ = false;
   cv::Mat eroded_, mapped_, opened_;
   std::vector<std::int32_t> spans_;  ///< first and last kept column of each row (first > last: none)
+  std::vector<std::int32_t> cliff_count_;  ///< below-floor pixels per beam of the frame
   std::vector<std::unique_ptr<Scratch>> scratch_;
 };
 

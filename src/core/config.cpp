@@ -166,6 +166,12 @@ void Config::validate() const
     fail(s.str());
   }
   requireRange("scan_fov", scan_fov, 0.0, 2.0 * 3.14159265358979323846, "rad (0 = the camera's)");
+  if (cliff_min_pixels < 1 || cliff_min_pixels > 100000)
+  {
+    std::ostringstream s;
+    s << "Config.cliff_min_pixels = " << cliff_min_pixels << ": expected 1..100000 pixels per beam";
+    fail(s.str());
+  }
   if (confidence_window < 1 || confidence_window > 1000)
   {
     std::ostringstream s;

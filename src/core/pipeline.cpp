@@ -101,6 +101,8 @@ RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const 
  * The opening can only move a depth nearer (a max of mins). Where it moved a pixel by more than t(d) and the raw
  * depth shows it on the floor or beyond the ceiling plane (at the corner of an object, or far down the floor where
  * a row spans metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not an obstacle.
+ * (Not "below the floor": beyond an object's silhouette that would turn noisy far floor into cliffs; at the rim of
+ * a hole the opening leaves an obstacle pixel, which errs on the safe side.)
  * @param in the input row (unmapped), @param src the opened row
  */
 template <typename T>
@@ -436,7 +438,7 @@ void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
  * per bin: a bin holds exactly the pixels whose centres fall in it. Where neighbouring centres are more than one
  * bin apart, the bins between them go to the nearer centre (in bearing), so that the binning leaves no bin empty
  * that a surface covers. Pixels whose neighbour lies half a turn away (straddling the direction behind) are not
- * used to fill.
+ * used to fill. With kCount, counts[k] also counts the finite ranges that went into bin k.
  */
 void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
 {
@@ -449,8 +451,9 @@ void binIndices(const float* __restrict fc, int a, int b, float beams, std::int3
   }
 }
 
+template <bool kCount>
 void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins, float* bins,
-                std::int32_t* key)
+                std::int32_t* key, std::int32_t* counts)
 {
   binIndices(fc, a, b, static_cast<float>(beams), key);
   for (int u = a; u <= b; ++u)
@@ -458,6 +461,8 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
     const float r = range[u];
     float& slot = bins[key[u]];  // bins[-1] and bins[beams] take what lies outside the scan
     slot = r < slot ? r : slot;
+    if constexpr (kCount)
+      counts[key[u]] += r < kInf;
     if (u == b)
       break;
     const int step = key[u + 1] - key[u];
@@ -477,6 +482,8 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
     {
       const float v = (k + 0.5f) < mid ? r_lo : r_hi;
       bins[k] = v < bins[k] ? v : bins[k];
+      if constexpr (kCount)
+        counts[k] += v < kInf;
     }
   }
 }
@@ -500,6 +507,8 @@ struct Pipeline::Scratch
   std::vector<float> edges;      // bin positions of the row's pixel centres
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
+  std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
+  std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
   ValueSplit guess;                      // the last row's value thresholds
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
@@ -559,6 +568,8 @@ void Pipeline::prepareBuffers(int threads)
     s.edges.resize(w + 1);
     s.bins.resize(beams + 2);  // from beam -1 to beams: what lies outside the scan goes to the ends
     s.key.resize(w);
+    s.cliff_bins.resize(beams + 2);
+    s.cliff_count.resize(beams + 2);
     s.vlab.resize(256);
     s.vdst.resize(256);
   }
@@ -683,6 +694,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   const float half_turn_bins = 3.14159265f / projector_.angleIncrement();
   const ThresholdLut& lut = lut_;
   const bool column = projector_.projection() == Projection::kColumn;
+  const bool cliff = config_.cliff_scan || config_.cliff_in_scan;
   // 8-bit frames without roll: classify each row by value thresholds (see ValueSplit).
   bool by_value = false;
   std::array<float, 256> colc;
@@ -728,6 +740,11 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 #pragma omp single nowait
     t2 = Clock::now();
     std::fill(s.bins.begin(), s.bins.end(), kInf);
+    if (cliff)
+    {
+      std::fill(s.cliff_bins.begin(), s.cliff_bins.end(), kInf);
+      std::fill(s.cliff_count.begin(), s.cliff_count.end(), 0);
+    }
     s.counts.fill(0);
     T* row = reinterpret_cast<T*>(s.row.data());
     T* tmp = reinterpret_cast<T*>(s.tmp.data());
@@ -805,7 +822,24 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       s.counts[kInvalid] += c.invalid;
       s.counts[kFloor] += c.floor;
       s.counts[kAboveCeiling] += c.ceiling;
-      s.counts[kBelowFloor] += w - c.kept - c.invalid - c.floor - c.ceiling;
+      const int below = w - c.kept - c.invalid - c.floor - c.ceiling;
+      s.counts[kBelowFloor] += below;
+      if (cliff && below > 0)
+      {
+        // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
+        int a = 0, b = w - 1;
+        while (lab[a] != kBelowFloor)
+          ++a;
+        while (lab[b] != kBelowFloor)
+          --b;
+        const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
+        for (int u = a1; u <= b1; ++u)
+          z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
+        projector_.centreBins(r, a1, b1, fb);
+        projector_.spanRanges(r, a1, b1, z, range);
+        binCentres<true>(fb, range, a1, b1, beams, half_turn_bins, s.cliff_bins.data() + 1, s.key.data(),
+                         s.cliff_count.data() + 1);
+      }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
       if (c.kept == 0)
@@ -829,7 +863,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
       projector_.centreBins(0, 0, w - 1, fb);
       projector_.spanRanges(0, 0, w - 1, s.colmin.data(), range);
-      binCentres(fb, range, 0, w - 1, beams, half_turn_bins, bins, s.key.data());
+      binCentres<false>(fb, range, 0, w - 1, beams, half_turn_bins, bins, s.key.data(), nullptr);
     }
     else
     {
@@ -848,7 +882,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           z[u] = kInf;
         projector_.centreBins(r, a1, b1, fb);
         projector_.spanRanges(r, a1, b1, z, range);
-        binCentres(fb, range, a1, b1, beams, half_turn_bins, bins, s.key.data());
+        binCentres<false>(fb, range, a1, b1, beams, half_turn_bins, bins, s.key.data(), nullptr);
       }
     }
   }
@@ -888,16 +922,51 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       cov_hi = std::max(cov_hi, scratch_[i]->cov_hi);
     }
   }
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int b = 0; b < beams; ++b)
+  // Negative obstacles: beams with at least cliff_min_pixels below-floor pixels.
+  ScanData& cl = out.cliff;
+  cl.ranges.clear();
+  cl.intensities.clear();
+  if (cliff)
   {
-    float& r = scan.ranges[b];
-    if (b + 1 <= cov_lo || b > cov_hi)
-      r = nan;  // no pixel of the image looks in this direction at this pose
-    else if (r < scan.range_min)
-      r = -kInf;
-    else if (r > scan.range_max)
-      r = kInf;
+    cl.ranges.assign(beams, kInf);
+    cliff_count_.assign(beams, 0);
+    for (int i = 0; i < team; ++i)
+    {
+      const Scratch& s = *scratch_[i];
+      for (int b = 0; b < beams; ++b)
+      {
+        cl.ranges[b] = std::min(cl.ranges[b], s.cliff_bins[b + 1]);
+        cliff_count_[b] += s.cliff_count[b + 1];
+      }
+    }
+    for (int b = 0; b < beams; ++b)
+    {
+      if (cliff_count_[b] < config_.cliff_min_pixels)
+        cl.ranges[b] = kInf;
+      if (config_.cliff_in_scan)
+        scan.ranges[b] = std::min(scan.ranges[b], cl.ranges[b]);
+    }
+    if (!config_.cliff_scan)
+      cl.ranges.clear();
+  }
+  cl.angle_min = scan.angle_min;
+  cl.angle_max = scan.angle_max;
+  cl.angle_increment = scan.angle_increment;
+  cl.range_min = scan.range_min;
+  cl.range_max = scan.range_max;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::vector<float>* ranges : {&scan.ranges, &cl.ranges})
+  {
+    for (int b = 0; b < static_cast<int>(ranges->size()); ++b)
+    {
+      float& r = (*ranges)[b];
+      if (b + 1 <= cov_lo || b > cov_hi)
+        r = nan;  // no pixel of the image looks in this direction at this pose
+      else if (r < scan.range_min)
+        r = -kInf;
+      else if (r > scan.range_max)
+        r = kInf;
+    }
   }
   confidence_.apply(scan.ranges, scan.intensities);
   out.times.confidence = msSince(t1);

@@ -80,16 +80,21 @@ def write_sequence_bag(
     tof: bool = True,
     roll: float = 0.0,
     ceiling_height: float = 2.0,
+    tf_error: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> dict[str, Any]:
     """Renders ``frames`` frames of a Segway driving in ``scene`` and writes depth, camera_info, tf and a LiDAR
     scan to a new bag at ``path`` (written to a temporary file, then renamed), with the ground truth of every
     frame: its per-pixel labels (``/ground_truth/labels``, mono8, the pipeline's label values) and the ideal scan
     (``/ground_truth/scan``: nearest obstacle below the ``ceiling_height`` plane per beam). ``tof`` adds flying
-    pixels and the Kinect's range limit; ``roll`` is the sensor's roll on its mount [rad]. Returns a summary."""
+    pixels and the Kinect's range limit; ``roll`` is the sensor's roll on its mount [rad]. ``tf_error`` (height [m],
+    pitch [rad], roll [rad]) is added to the mounting the bag's tf states (a wrong URDF: the frames are rendered
+    at the true pose). Returns a summary."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
     if frames < 1:
         raise ValueError(f"frames = {frames}: expected >= 1")
+    if len(tf_error) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in tf_error):
+        raise ValueError(f"tf_error = {tf_error!r}: expected three finite numbers (height [m], pitch, roll [rad])")
     from rosbags.rosbag1 import Writer
 
     path = Path(path)
@@ -152,7 +157,13 @@ def write_sequence_bag(
                 transforms=[
                     # Roll about the sensor's own axis after its tilt: R = Ry(tilt) Rx(roll), so that with the base's
                     # pitch the total is Ry(base + tilt) Rx(roll), the renderer's convention, exactly.
-                    tf("base_link", "kinect2_link", t0, rig.kinect_xyz, _quat_from_rpy(roll, rig.kinect_tilt, 0.0)),
+                    tf(
+                        "base_link",
+                        "kinect2_link",
+                        t0,
+                        (rig.kinect_xyz[0], rig.kinect_xyz[1], rig.kinect_xyz[2] + tf_error[0]),
+                        _quat_from_rpy(roll + tf_error[2], rig.kinect_tilt + tf_error[1], 0.0),
+                    ),
                     tf("kinect2_link", rig.optical_frame, t0, (0.0, 0.0, 0.0), _OPTICAL_IN_BODY),
                     tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
                 ]
@@ -257,4 +268,9 @@ def write_sequence_bag(
         "encoding": encoding,
         "image_topic": rig.image_topic,
         "base_pitch_deg_range": [math.degrees(min(pitches)), math.degrees(max(pitches))],
+        "tf_error": {
+            "height": tf_error[0],
+            "pitch_deg": math.degrees(tf_error[1]),
+            "roll_deg": math.degrees(tf_error[2]),
+        },
     }

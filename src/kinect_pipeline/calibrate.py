@@ -29,24 +29,31 @@ def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) 
             arr = np.load(path, allow_pickle=False)
         except (ValueError, OSError) as exc:
             raise CalibrationError(f"{path}: not a numpy array file ({exc})") from exc
-        scale = {np.dtype(np.uint16): depth_scale, np.dtype(np.uint8): max_depth / 255.0}
     else:
         import cv2
 
         arr = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if arr is None:
             raise CalibrationError(f"{path}: not an image OpenCV can read")
-        scale = {np.dtype(np.uint16): depth_scale, np.dtype(np.uint8): max_depth / 255.0}
     if arr.ndim != 2:
         raise CalibrationError(f"{path}: shape {arr.shape}: expected a single-channel depth image")
-    if arr.dtype in scale:
-        metres = arr.astype(np.float32) * np.float32(scale[arr.dtype])
-        if arr.dtype == np.uint8:
-            metres[arr < 2] = 0.0
+    return depth_metres(arr, depth_scale, max_depth, str(path))
+
+
+def depth_metres(
+    arr: np.ndarray, depth_scale: float = 0.001, max_depth: float = 12.0, name: str = "depth"
+) -> np.ndarray:
+    """A depth array as contiguous float32 metres, 0 = unknown: uint16 (``depth_scale`` m per unit), uint8
+    (normalised with ``max_depth``, v < 2 unknown) or float (m)."""
+    if arr.dtype == np.uint16:
+        metres = arr.astype(np.float32) * np.float32(depth_scale)
+    elif arr.dtype == np.uint8:
+        metres = arr.astype(np.float32) * np.float32(max_depth / 255.0)
+        metres[arr < 2] = 0.0
     elif arr.dtype.kind == "f":
         metres = arr.astype(np.float32)
     else:
-        raise CalibrationError(f"{path}: dtype {arr.dtype}: expected uint16 (mm), uint8 (normalised) or float (m)")
+        raise CalibrationError(f"{name}: dtype {arr.dtype}: expected uint16 (mm), uint8 (normalised) or float (m)")
     metres[~np.isfinite(metres)] = 0.0
     return np.ascontiguousarray(metres)
 
@@ -93,6 +100,29 @@ class Calibration:
                 f"{q[0]:.6f} {q[1]:.6f} {q[2]:.6f} {q[3]:.6f} {parent} {child}"
             )
         return d
+
+
+def plot_calibration(metres: np.ndarray, camera: _core.Camera, result: Calibration, path: Path, name: str) -> None:
+    """The frame's depth and, under the calibrated pose, the floor the pipeline then removes (green): where the
+    calibration is right, the floor is green up to the walls and nothing stands on it."""
+    from .demo import plot_frame
+
+    cfg = _core.Config(
+        sensor_height=result.height,
+        sensor_pitch=result.pitch,
+        sensor_roll=result.roll,
+        ceiling_height=max(3.0, result.height + 0.5),
+    )
+    depth = np.where(np.isfinite(metres), metres, 0.0).astype(np.float32)
+    res = _core.Pipeline(camera, cfg).process(depth)
+    plot_frame(
+        depth,
+        res,
+        cfg.max_depth,
+        path,
+        f"{name}: height {result.height:.3f} m, pitch {math.degrees(result.pitch):+.2f} deg, "
+        f"roll {math.degrees(result.roll):+.2f} deg, floor {100 * result.floor_fraction:.0f} % of the pixels",
+    )
 
 
 def optical_quaternion(pitch: float, roll: float) -> tuple[float, float, float, float]:
@@ -150,3 +180,166 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         spread("roll"),
         per,
     )
+
+
+# -- check of the tf-provided pose against the floor seen in each frame of a bag (moving base) --------------------
+
+TF_QUANTITIES = (("height", "m", 1.0), ("pitch", "deg", 180.0 / math.pi), ("roll", "deg", 180.0 / math.pi))
+
+
+@dataclass
+class TfCheck:
+    """Per depth frame of a bag: the pose tf gives (URDF + IMU/odometry) and the pose of the floor seen in it."""
+
+    bag: str
+    depth_topic: str
+    frames: list[dict[str, Any]]  #: stamp, tf_*, floor_*, diff_* (tf - floor; m, rad), floor_fraction, found
+
+    def summary(self) -> dict[str, Any]:
+        """Per quantity: median of tf - floor (signed: tf's bias), median / p95 / max of |tf - floor|, in m and rad."""
+        good = [f for f in self.frames if f["found"]]
+        out: dict[str, Any] = {"frames": len(self.frames), "frames_with_floor": len(good)}
+        for q, _, _ in TF_QUANTITIES:
+            d = np.array([f[f"diff_{q}"] for f in good], float)
+            a = np.abs(d)
+            out[q] = (
+                {
+                    "median": float(np.median(d)),
+                    "median_abs": float(np.median(a)),
+                    "p95_abs": float(np.percentile(a, 95)),
+                    "max_abs": float(a.max()),
+                }
+                if len(d)
+                else None
+            )
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"bag": self.bag, "depth_topic": self.depth_topic, "summary": self.summary(), "frames": self.frames}
+
+
+def check_tf(
+    bag: Path,
+    depth_topic: str | None = None,
+    info_topic: str | None = None,
+    base_frame: str = "base_footprint",
+    base_frame_height: float = 0.0,
+    max_depth: float = 12.0,
+    max_tilt: float = math.radians(40.0),
+    show_progress: bool = False,
+) -> TfCheck:
+    """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
+    stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
+    check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion)."""
+    from .replay import ReplayOptions, _pick_topics, _stamp, camera_from_info, depth_frames, image_to_array, read_tf
+
+    if not isinstance(bag, (str, Path)):
+        raise TypeError(f"bag: {type(bag).__name__}, expected a path")
+    opts = ReplayOptions(depth_topic=depth_topic, info_topic=info_topic, base_frame=base_frame)
+    reader = _open(Path(bag))
+    frames: list[dict[str, Any]] = []
+    try:
+        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
+        tf = read_tf(reader)
+        for img, info in depth_frames(reader, depth_topic, info_topic, "calibrate" if show_progress else None):
+            stamp = _stamp(img.header)
+            rec: dict[str, Any] = {"stamp": stamp, "found": False}
+            try:
+                q, t = tf.lookup(base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
+            except LookupError as exc:
+                rec["message"] = f"no tf: {exc}"
+                frames.append(rec)
+                continue
+            h, p, r, _ = _core.pose_from_optical_transform((q, t), base_frame_height)
+            rec.update(tf_height=h, tf_pitch=p, tf_roll=r)
+            cam = camera_from_info(info)
+            metres = depth_metres(image_to_array(img), 0.001, max_depth, depth_topic)
+            fit = dict(_core.calibrate_from_floor(metres, cam, max_tilt=max_tilt))
+            rec["floor_fraction"] = float(fit["floor_fraction"])
+            if fit["found"]:
+                rec.update(found=True, floor_height=fit["height"], floor_pitch=fit["pitch"], floor_roll=fit["roll"])
+                rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch", "roll")})
+            else:
+                rec["message"] = "no floor found"
+            frames.append(rec)
+    finally:
+        reader.close()
+    if not frames:
+        raise CalibrationError(f"{bag}: no depth frame on {depth_topic} with a camera_info")
+    return TfCheck(str(bag), depth_topic, frames)
+
+
+def _open(bag: Path) -> Any:
+    from .replay import ReplayError, open_bag
+
+    if not bag.exists():
+        raise CalibrationError(f"{bag}: no such bag")
+    try:
+        return open_bag(bag)
+    except ReplayError as exc:
+        raise CalibrationError(str(exc)) from exc
+
+
+def describe_tf_check(check: TfCheck) -> str:
+    s = check.summary()
+    lines = [
+        f"{check.bag}: {s['frames']} frames of {check.depth_topic}, floor found in {s['frames_with_floor']}; "
+        "tf minus floor (tf's error, the floor taken as the truth):",
+        "| quantity | median (bias) | median abs | p95 abs | max abs |",
+        "|---|---|---|---|---|",
+    ]
+    for q, unit, k in TF_QUANTITIES:
+        v = s[q]
+        if v is None:
+            lines.append(f"| {q} [{unit}] | – | – | – | – |")
+        else:
+            f = "{:+.4f}" if unit == "m" else "{:+.3f}"
+            g = "{:.4f}" if unit == "m" else "{:.3f}"
+            lines.append(
+                f"| {q} [{unit}] | {f.format(k * v['median'])} | {g.format(k * v['median_abs'])} "
+                f"| {g.format(k * v['p95_abs'])} | {g.format(k * v['max_abs'])} |"
+            )
+    return "\n".join(lines)
+
+
+def plot_tf_check(check: TfCheck, path: Path) -> None:
+    """Per frame: tf's and the floor's height, pitch and roll over time, and their difference (PNG, atomic)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .demo import _save_atomic
+
+    good = [f for f in check.frames if f["found"]]
+    t0 = check.frames[0]["stamp"]
+    t = np.array([f["stamp"] - t0 for f in good])
+    fig, axes = plt.subplots(3, 2, figsize=(11, 7), sharex=True)
+    for row, (q, unit, k) in enumerate(TF_QUANTITIES):
+        tf_v = np.array([f[f"tf_{q}"] for f in good]) * k
+        fl_v = np.array([f[f"floor_{q}"] for f in good]) * k
+        ax = axes[row, 0]
+        ax.plot(t, tf_v, "b.-", ms=3, label="tf (URDF + base pitch)")
+        ax.plot(t, fl_v, "r.-", ms=3, label="floor seen in the frame")
+        ax.set_ylabel(f"{q} [{unit}]")
+        ax.grid(True, color="0.85")
+        ax = axes[row, 1]
+        ax.plot(t, tf_v - fl_v, "k.-", ms=3)
+        ax.axhline(0.0, color="0.5", lw=0.8)
+        ax.set_ylabel(f"tf - floor [{unit}]")
+        ax.grid(True, color="0.85")
+    axes[0, 0].legend(fontsize=8)
+    axes[0, 0].set_title("pose per frame")
+    axes[0, 1].set_title("disagreement")
+    axes[2, 0].set_xlabel("time [s]")
+    axes[2, 1].set_xlabel("time [s]")
+    s = check.summary()
+    if s["pitch"] is not None:
+        fig.suptitle(
+            f"tf vs the floor seen, {s['frames_with_floor']} frames: "
+            f"tf's pitch bias {math.degrees(s['pitch']['median']):+.2f} deg, "
+            f"height bias {100 * s['height']['median']:+.1f} cm (median of tf - floor)"
+        )
+    fig.tight_layout()
+    _save_atomic(fig, path)
+    plt.close(fig)

@@ -41,7 +41,7 @@ def _bench_binary() -> Path:
 def cmd_demo(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
     from .demo import run_demo
-    from .replay import format_report, replay
+    from .replay import format_report, partial_path, replay
     from .report import write_report
 
     out = Path(args.out)
@@ -49,7 +49,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(json.dumps(summary, indent=1))
     # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.
     bag, replayed = out / "demo.bag", out / "demo_replayed.bag"
-    for p in (bag, replayed):  # the demo's own outputs of an earlier run
+    for p in (bag, replayed, partial_path(replayed)):  # the demo's own outputs of an earlier (interrupted) run
         p.unlink(missing_ok=True)
     write_sequence_bag(bag, frames=args.frames, encoding=args.encoding, seed=args.seed)
     print(format_report(replay(bag, replayed, show_progress=True)))
@@ -63,7 +63,12 @@ def cmd_synth(args: argparse.Namespace) -> int:
     from .bag import write_sequence_bag
 
     summary = write_sequence_bag(
-        Path(args.output), frames=args.frames, encoding=args.encoding, seed=args.seed, show_progress=not args.quiet
+        Path(args.output),
+        frames=args.frames,
+        encoding=args.encoding,
+        seed=args.seed,
+        show_progress=not args.quiet,
+        tf_error=(args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll)),
     )
     print(json.dumps(summary))
     return 0
@@ -79,13 +84,15 @@ def cmd_bench(args: argparse.Namespace) -> int:
         "--projection",
         args.projection,
     ]
+    if args.threads:
+        cmd += ["--threads", args.threads]
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    from .replay import ReplayError, ReplayOptions, format_report, replay
+    from .replay import ReplayError, ReplayOptions, format_report, partial_path, replay
 
     config = parse_params(args.param)
     opts = ReplayOptions(
@@ -97,10 +104,26 @@ def cmd_replay(args: argparse.Namespace) -> int:
         skip_bad=args.skip_bad,
         config=config,
     )
+    out = Path(args.output)
     try:
-        report = replay(Path(args.input), Path(args.output), opts, show_progress=not args.quiet)
+        report = replay(
+            Path(args.input),
+            out,
+            opts,
+            show_progress=not args.quiet,
+            resume=args.resume,
+            max_frames=args.max_frames,
+        )
     except ReplayError as exc:
         raise ToolError(str(exc)) from exc
+    except KeyboardInterrupt:
+        if partial_path(out).exists():
+            print(
+                f"kinect-pipeline replay: interrupted; what was written is in {partial_path(out)}: run the same "
+                "command with --resume to continue",
+                file=sys.stderr,
+            )
+        return 130
     print(format_report(report))
     return 0
 
@@ -109,6 +132,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from . import _core
     from .calibrate import CalibrationError, calibrate, load_depth
 
+    if args.bag:
+        return _calibrate_bag(args)
+    if not args.files or not args.intrinsics:
+        raise ToolError(
+            "give depth frames and --intrinsics FX FY CX CY, or --bag BAG to check its tf against the floor"
+        )
     try:
         frames = [(f, load_depth(Path(f), args.depth_scale, args.max_depth)) for f in args.files]
         h, w = frames[0][1].shape
@@ -118,6 +147,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc
     d = result.as_dict(args.base_frame, args.optical_frame)
+    if args.plot and result.found:
+        from .calibrate import plot_calibration
+
+        plot_calibration(frames[0][1], cam, result, Path(args.plot), Path(frames[0][0]).name)
     if args.json:
         print(json.dumps(d, indent=1))
     elif result.found:
@@ -132,6 +165,38 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"static tf: {d['static_transform']}")
     if not result.found:
         print(f"kinect-pipeline calibrate: {result.message}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _calibrate_bag(args: argparse.Namespace) -> int:
+    """calibrate --bag: the tf-provided pose against the floor seen in each frame."""
+    from .calibrate import CalibrationError, check_tf, describe_tf_check, plot_tf_check
+
+    if args.files:
+        raise ToolError(f"--bag checks a bag: give no frame files as well (got {args.files})")
+    try:
+        check = check_tf(
+            Path(args.bag),
+            depth_topic=args.depth_topic,
+            base_frame=args.base_frame,
+            base_frame_height=args.base_frame_height,
+            max_depth=args.max_depth,
+            max_tilt=math.radians(args.max_tilt),
+            show_progress=not args.json,
+        )
+    except CalibrationError as exc:
+        raise ToolError(str(exc)) from exc
+    if args.plot:
+        plot_tf_check(check, Path(args.plot))
+    if args.json:
+        print(json.dumps(check.as_dict(), indent=1))
+    else:
+        print(describe_tf_check(check))
+        if args.plot:
+            print(f"plot: {args.plot}")
+    if check.summary()["frames_with_floor"] == 0:
+        print(f"kinect-pipeline calibrate: no floor found in any frame of {args.bag}", file=sys.stderr)
         return 1
     return 0
 
@@ -164,14 +229,21 @@ def cmd_regress(args: argparse.Namespace) -> int:
 def cmd_curve(args: argparse.Namespace) -> int:
     from . import _core
     from .calibrate import CalibrationError, load_depth
-    from .curve import curve_from_model, describe, fit_curve, plot, set_live, write_yaml
+    from .curve import curve_from_model, describe, fit_curve, generated_floor_frames, plot, set_live, write_yaml
 
     try:
         if args.from_model:
             fit = curve_from_model(args.from_model[0], args.from_model[1], args.rate, args.margin)
+        elif args.compare and not args.files:
+            print("fitted on 3 generated Kinect v2 floor frames (no frames given):")
+            frames = generated_floor_frames(3)
+            h, w = frames[0][1].shape
+            from . import kinect_v2_camera
+
+            fit = fit_curve(frames, kinect_v2_camera(), args.rate, args.margin)
         else:
             if not args.files or not args.intrinsics:
-                raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K")
+                raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K, or --compare")
             frames = [(f, load_depth(Path(f), args.depth_scale)) for f in args.files]
             h, w = frames[0][1].shape
             fit = fit_curve(frames, _core.Camera(w, h, *args.intrinsics), args.rate, args.margin)
@@ -184,6 +256,19 @@ def cmd_curve(args: argparse.Namespace) -> int:
     if args.plot:
         plot(fit, _core.Config().threshold_curve, Path(args.plot))
         print(f"plot: {args.plot}")
+    if args.compare:
+        from .curve import compare_with_constant, comparison_table, plot_comparison
+
+        cmp = compare_with_constant(fit, frames=args.compare_frames)
+        print(
+            f"on {args.compare_frames} generated noisy frames (lab scene, Kinect v2 at 1.1 m tilted 15 deg, Segway "
+            "pitching, 16UC1, noise + dropouts + flying pixels); phantom beam: shorter than the nearest true obstacle "
+            "by > 5 cm + 4 sigma; goal <= 0.2 %:"
+        )
+        print(comparison_table(cmp.rows()))
+        if args.compare_plot:
+            plot_comparison(cmp.rows(), Path(args.compare_plot))
+            print(f"plot: {args.compare_plot}")
     if args.set_node:
         print(f"set on {args.set_node}: {set_live(args.set_node, fit)['threshold_curve']}")
     return 0
@@ -210,6 +295,23 @@ def cmd_quality(args: argparse.Namespace) -> int:
         "Kinect noise + dropouts + flying pixels + 8 m range; means over frames:"
     )
     print(table(rows))
+    return 0
+
+
+def cmd_cliff(args: argparse.Namespace) -> int:
+    from .cliff import EDGE, STEP, evaluate, picture, table
+
+    rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
+    print(
+        f"negative obstacles: a stair down {EDGE:g} m ahead ({STEP * 100:g} cm step) and a flat floor, Kinect v2 at "
+        f"1.1 m tilted 0.3 rad, {args.frames} frames per condition, {args.encoding} with noise, dropouts and "
+        "flying pixels; cliff_in_scan on:"
+    )
+    print(table(rows))
+    if args.pictures:
+        out = Path(args.pictures)
+        out.mkdir(parents=True, exist_ok=True)
+        print("pictures: " + "  ".join(str(p) for p in picture(out, args.encoding)))
     return 0
 
 
@@ -276,12 +378,20 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     s.add_argument("--seed", type=int, default=1)
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument(
+        "--tf-error-height", type=float, default=0.0, help="add this to the mounting height the tf states [m]"
+    )
+    s.add_argument(
+        "--tf-error-pitch", type=float, default=0.0, help="add this to the mounting pitch the tf states [deg]"
+    )
+    s.add_argument("--tf-error-roll", type=float, default=0.0, help="add this to the mounting roll the tf states [deg]")
     s.set_defaults(func=cmd_synth)
 
     b = sub.add_parser("bench", help="time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)")
     b.add_argument("--frames", type=int, default=300)
     b.add_argument("--kernel", type=int, default=3)
     b.add_argument("--projection", choices=["horizontal", "column"], default="horizontal")
+    b.add_argument("--threads", help="comma-separated thread counts, e.g. 1,2,4,8 (default 1,2)")
     b.add_argument("--markdown", action="store_true", help="print a Markdown table")
     b.set_defaults(func=cmd_bench)
 
@@ -300,7 +410,19 @@ def build_parser() -> argparse.ArgumentParser:
         default="static",
         help="frames without tf: static pose from the parameters, or skip them",
     )
-    rp.add_argument("--skip-bad", action="store_true", help="skip damaged data instead of stopping")
+    rp.add_argument(
+        "--skip-bad",
+        action="store_true",
+        help="skip damaged messages (and read a truncated or unindexed bag) instead of stopping; says how many and "
+        "where",
+    )
+    rp.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue a replay into OUTPUT that stopped (killed: its .OUTPUT.partial file; or --max-frames): "
+        "takes the frames it wrote, computes the rest; the same result as one uninterrupted run",
+    )
+    rp.add_argument("--max-frames", type=int, help="stop after this many depth frames (a complete, shorter bag)")
     rp.add_argument("--param", action="append", metavar="NAME=VALUE", help="a Config field, e.g. sensor_height=1.1")
     rp.add_argument("--quiet", action="store_true", help="no progress bar")
     rp.set_defaults(func=cmd_replay)
@@ -324,7 +446,13 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("files", nargs="*", help="floor frames (as for calibrate)")
     cv.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
     cv.add_argument("--depth-scale", type=float, default=0.001)
-    cv.add_argument("--rate", type=float, default=1e-3, help="false-obstacle rate per floor pixel (default 0.001)")
+    cv.add_argument(
+        "--rate",
+        type=float,
+        default=1e-4,
+        help="false-obstacle rate per floor pixel (default 1e-4: a beam sees ~100 floor pixels, so this keeps "
+        "phantom beams under the 0.2 %% goal)",
+    )
     cv.add_argument("--margin", type=float, default=0.01, help="added to k sigma [m]")
     cv.add_argument(
         "--from-model",
@@ -336,11 +464,36 @@ def build_parser() -> argparse.ArgumentParser:
     cv.add_argument("-o", "--output", help="write the curve as YAML (rosparam / dynamic_reconfigure)")
     cv.add_argument("--plot", help="write a PNG of the residuals and the curves")
     cv.add_argument("--set-node", help="set it live on this node through dynamic_reconfigure")
+    cv.add_argument(
+        "--compare",
+        action="store_true",
+        help="score it on generated noisy frames against the constant margins with the same false-obstacle and "
+        "phantom-beam rates (fits on generated floor frames when no frames are given)",
+    )
+    cv.add_argument("--compare-frames", type=int, default=12, help="generated frames for --compare (default 12)")
+    cv.add_argument("--compare-plot", help="with --compare: write a PNG of the curves and what they remove")
     cv.set_defaults(func=cmd_curve)
 
-    c = sub.add_parser("calibrate", help="sensor height, pitch and roll from frames of a flat floor")
-    c.add_argument("files", nargs="+", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
-    c.add_argument("--intrinsics", nargs=4, type=float, required=True, metavar=("FX", "FY", "CX", "CY"))
+    c = sub.add_parser(
+        "calibrate",
+        help="sensor height, pitch and roll from frames of a flat floor; --bag: tf's pose vs the floor per frame",
+    )
+    c.add_argument("files", nargs="*", help="depth frames: 16-bit PNG/PGM (mm), 8-bit PNG, or .npy (float m)")
+    c.add_argument("--intrinsics", nargs=4, type=float, metavar=("FX", "FY", "CX", "CY"))
+    c.add_argument(
+        "--bag",
+        help="a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is from the floor seen "
+        "in it (median / p95 / max; intrinsics from its camera_info)",
+    )
+    c.add_argument("--depth-topic", help="with --bag: the depth Image topic (default: as replay)")
+    c.add_argument("--base-frame-height", type=float, default=0.0, help="with --bag: base frame height [m]")
+    c.add_argument(
+        "--plot",
+        help=(
+            "write a PNG: with frames, the first one's floor under the calibrated pose; "
+            "with --bag, tf vs floor per frame"
+        ),
+    )
     c.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit files (TUM: 0.0002)")
     c.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
     c.add_argument(
@@ -366,6 +519,13 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
     q.add_argument("--quiet", action="store_true")
     q.set_defaults(func=cmd_quality)
+
+    cl = sub.add_parser("cliff", help="negative obstacles (stair down, hole, flat floor) per pitch condition")
+    cl.add_argument("--frames", type=int, default=20, help="frames per pitch condition")
+    cl.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1")
+    cl.add_argument("--pictures", metavar="DIR", help="also write the stair and hole pictures into DIR")
+    cl.add_argument("--quiet", action="store_true")
+    cl.set_defaults(func=cmd_cliff)
 
     so = sub.add_parser("soak", help="long run through a real roscore: drops, latency, memory at start and end")
     so.add_argument("--minutes", type=float, default=10.0)

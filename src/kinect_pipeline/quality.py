@@ -109,15 +109,11 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
                         m = obstacle & (height >= lo) & (height < hi)
                         if m.any():
                             acc.setdefault(f"kept{k}", []).append(float((labels[m] == 0).mean()))
-                # Phantom: shorter than the nearest true obstacle (within one beam either side) by > 5 cm; a kept
-                # floor pixel is one, as navigation would see it.
-                real = ideal_scan(t, angle_min, inc, n, obstacle)
-                real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
+                phantom, phantom4 = phantom_rates(t, ranges, angle_min, inc, obstacle)
+                acc.setdefault("phantom", []).append(phantom)
+                acc.setdefault("phantom4", []).append(phantom4)
                 r = np.asarray(ranges, np.float64)
                 fin = np.isfinite(r)
-                acc.setdefault("phantom", []).append(float((fin & (r < real - 0.05)).sum() / n))
-                sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
-                acc.setdefault("phantom4", []).append(float((fin & (r < real - 0.05 - 4 * sigma)).sum() / n))
                 tall_scan = ideal_scan(t, angle_min, inc, n, np.isin(obj, list(tall)) & (height <= 2.0))
                 seen = np.isfinite(tall_scan)
                 if seen.any():
@@ -147,6 +143,20 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
             )
         )
     return rows
+
+
+def phantom_rates(
+    truth: dict[str, np.ndarray], ranges: Any, angle_min: float, inc: float, obstacle: np.ndarray
+) -> tuple[float, float]:
+    """Fractions of beams that are phantom: shorter than the nearest true obstacle (within one beam either side)
+    by > 5 cm, and by > 5 cm + 4 sigma of the sensor's noise. A kept floor pixel makes one, as navigation sees it."""
+    n = len(ranges)
+    real = ideal_scan(truth, angle_min, inc, n, obstacle)
+    real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
+    r = np.asarray(ranges, np.float64)
+    fin = np.isfinite(r)
+    sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
+    return float((fin & (r < real - 0.05)).sum() / n), float((fin & (r < real - 0.05 - 4 * sigma)).sum() / n)
 
 
 def _scan_geometry(cam: _core.Camera) -> tuple[float, float]:

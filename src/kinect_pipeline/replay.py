@@ -7,7 +7,7 @@ import bisect
 import math
 import os
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,14 +16,14 @@ from typing import Any
 import numpy as np
 
 from . import _core
+from .bagfile import Bag, BagError, Damage
 
 Tf = tuple[tuple[float, float, float, float], tuple[float, float, float]]
 
 DTYPES = {"8UC1": np.uint8, "mono8": np.uint8, "16UC1": np.uint16, "mono16": np.uint16, "32FC1": np.float32}
 
 
-class ReplayError(ValueError):
-    """A bag or an option the replay cannot use; the message says which and why."""
+ReplayError = BagError  #: a bag or an option the replay cannot use; the message says which and why
 
 
 @dataclass
@@ -49,6 +49,9 @@ class ReplayReport:
     pose_fallback: int = 0
     skipped_no_pose: int = 0
     bad_messages: int = 0
+    reused: int = 0  #: frames taken from the earlier run (--resume)
+    warm_up: int = 0  #: frames re-processed to restore the confidence history on resuming
+    stopped_early: bool = False  #: stopped at max_frames
     seconds: float = 0.0
     depth_topic: str = ""
     scan_topic: str = ""
@@ -145,16 +148,56 @@ def _typestore() -> Any:
     return ts()
 
 
-def open_bag(path: Path) -> Any:
-    """A rosbags reader, opened; a file that is no readable ROS 1 bag raises ReplayError naming it."""
-    from rosbags.rosbag1 import Reader, ReaderError
+def open_bag(path: Path, recover: bool = False) -> Bag:
+    """A bag opened for reading; a file that is no readable ROS 1 bag, or damaged data in it, raises ReplayError
+    naming the file, the byte offset and the topic. ``recover`` reads what is intact of a damaged bag instead."""
+    return Bag(path, recover=recover)
 
-    try:
-        reader = Reader(path)
-        reader.open()
-    except (ReaderError, OSError) as exc:
-        raise ReplayError(f"{path}: not a readable ROS 1 bag ({exc})") from exc
-    return reader
+
+def read_tf(bag: Bag, on_damage: Any = None) -> TfBuffer:
+    """All of the bag's /tf and /tf_static (a frame may come before the transform at its stamp). A message that
+    cannot be decoded is a damaged record: raised as ReplayError, or given to ``on_damage`` and skipped."""
+    ts = _typestore()
+    tf = TfBuffer()
+    conns = [c for c in bag.connections if c.topic in ("/tf", "/tf_static")]
+    for conn, _, raw, off in bag.records(conns, on_damage) if conns else ():
+        try:
+            msg = ts.deserialize_ros1(raw, conn.msgtype)
+        except Exception as exc:  # rosbags raises several kinds on garbage
+            damage = Damage(off, conn.topic, f"cannot be decoded as {conn.msgtype}: {exc}", lost=1)
+            if on_damage is None:
+                raise ReplayError(f"{bag.path}: damaged message record at {damage}") from exc
+            on_damage(damage)
+            continue
+        tf.add(msg, static=conn.topic == "/tf_static")
+    return tf
+
+
+def depth_frames(bag: Bag, depth_topic: str, info_topic: str, progress_name: str | None = None) -> Iterator[Any]:
+    """(depth Image, its CameraInfo) in time order: the camera_info of the same stamp, else the latest before;
+    frames before any camera_info are left out. ``progress_name``: a progress bar (frames/s) with that name."""
+    ts = _typestore()
+    conns = [c for c in bag.connections if c.topic in (depth_topic, info_topic)]
+    total = sum(c.msgcount for c in conns if c.topic == depth_topic)
+    bar: Any = None
+    if progress_name:
+        from .demo import progress
+
+        bar = iter(progress(range(total), total, progress_name))
+    infos: dict[float, Any] = {}
+    for conn, _, raw in bag.messages(conns):
+        msg = ts.deserialize_ros1(raw, conn.msgtype)
+        st = _stamp(msg.header)
+        if conn.topic == info_topic:
+            infos[st] = msg
+            continue
+        if bar is not None:
+            next(bar, None)
+        info = infos.get(st) or (infos[max(infos)] if infos else None)
+        if info is not None:
+            yield msg, info
+    for _ in bar or ():
+        pass
 
 
 def camera_from_info(info: Any) -> _core.Camera:
@@ -186,44 +229,292 @@ def _pick_topics(connections: list[Any], opts: ReplayOptions) -> tuple[str, str]
     return depth, info
 
 
-def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progress: bool = True) -> ReplayReport:
-    """Replays ``inp`` into a new bag ``out`` (never the input; written to a temporary file, then renamed)."""
+META_TOPIC = "/kinect_pipeline/replay_info"  #: first message of every replay output: what made it (JSON)
+
+
+def partial_path(out: Path) -> Path:
+    """Where a replay into ``out`` writes until it is complete (left behind when it was killed)."""
+    return out.with_name(f".{out.name}.partial")
+
+
+def _input_identity(path: Path) -> dict[str, Any]:
+    import hashlib
+
+    size = path.stat().st_size
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        h.update(f.read(1 << 20))
+        f.seek(max(0, size - (1 << 20)))
+        h.update(f.read(1 << 20))
+    return {"size": size, "sha256_head_tail": h.hexdigest()}
+
+
+class _Frames:
+    """The per-frame state of a replay: camera_info by stamp, the pipeline (made anew when the camera changes) and
+    the frames it processed since then, so that a resumed replay can restore its confidence history exactly."""
+
+    def __init__(self, ts: Any, tf: TfBuffer, opts: ReplayOptions, report: ReplayReport, depth_topic: str) -> None:
+        self.ts, self.tf, self.opts, self.report, self.depth_topic = ts, tf, opts, report, depth_topic
+        self.config = _core.Config(**opts.config)
+        self.window = int(self.config.confidence_window)
+        self.infos: dict[float, Any] = {}
+        self.pipe: _core.Pipeline | None = None
+        self.camera: Any = None
+        self.since = 0  # frames processed by this camera's pipeline
+        self.recent: deque[Any] = deque(maxlen=2 * self.window)
+
+    def info(self, msg: Any) -> None:
+        self.infos[_stamp(msg.header)] = msg
+
+    def _camera(self, img: Any) -> Any:
+        stamp = _stamp(img.header)
+        info = self.infos.get(stamp) or (self.infos[max(self.infos)] if self.infos else None)
+        return None if info is None else camera_from_info(info)
+
+    def _use(self, cam: Any) -> None:
+        if self.camera is None or repr(cam) != repr(self.camera):
+            self.pipe, self.camera, self.since = None, cam, 0
+            self.recent.clear()
+
+    def process(self, img: Any, note: bool = True) -> Any:
+        """The core's result for a depth Image at the tf pose of its stamp, or None when the frame is skipped."""
+        stamp, report, opts = _stamp(img.header), self.report, self.opts
+        cam = self._camera(img)
+        if cam is None:
+            if note:
+                report.problems.append(f"{self.depth_topic} at {stamp:.3f} s: no camera_info yet; frame skipped")
+            return None
+        self._use(cam)
+        if self.pipe is None:
+            self.pipe = _core.Pipeline(cam, self.config)
+        try:
+            depth = image_to_array(img)
+        except ReplayError as exc:
+            if note:
+                report.problems.append(f"{self.depth_topic} at {stamp:.3f} s: {exc}")
+            return None
+        try:
+            q, tr = self.tf.lookup(opts.base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
+            height, pitch, roll, _ = _core.pose_from_optical_transform((q, tr), opts.base_frame_height)
+            res = self.pipe.process_pose(depth, height, pitch, roll)
+            report.pose_from_tf += note
+        except LookupError as exc:
+            if opts.pose_fallback == "skip":
+                if note:
+                    report.skipped_no_pose += 1
+                    report.problems.append(f"{self.depth_topic} at {stamp:.3f} s: {exc}; frame skipped")
+                return None
+            if note:
+                report.pose_fallback += 1
+                if report.pose_fallback == 1:
+                    report.problems.append(f"{self.depth_topic} at {stamp:.3f} s: {exc}; static pose used (and later)")
+            res = self.pipe.process(depth)
+        self.since += 1
+        self.recent.append(img)
+        return res
+
+    def processed_before(self, img: Any) -> None:
+        """A frame whose outputs an earlier run wrote: follow the state without processing it."""
+        cam = self._camera(img)
+        if cam is not None:
+            self._use(cam)
+            self.since += 1
+            self.recent.append(img)
+
+    def warm_up(self) -> int:
+        """Re-processes the last frames before a resume so that the confidence history, and the slot each range
+        sits in, is what an uninterrupted run has: those since the last multiple of the window that leaves at
+        least a full window. Returns how many."""
+        if self.camera is None or self.since == 0:
+            return 0
+        n, w = self.since, self.window
+        start = 0 if n < w else ((n - w) // w) * w
+        frames = list(self.recent)[-(n - start) :]
+        self.pipe, self.since = _core.Pipeline(self.camera, self.config), start
+        saved = list(self.recent)[: len(self.recent) - len(frames)]
+        self.recent.clear()
+        self.recent.extend(saved)
+        for img in frames:
+            self.process(img, note=False)
+        return len(frames)
+
+
+class _Earlier:
+    """The records an earlier, unfinished replay wrote (its partial file, or an output it stopped early), in the
+    order they were written, up to its first damaged or missing part."""
+
+    def __init__(self, bag: Bag) -> None:
+        self.bag = bag
+        limit = min((d.offset for d in bag.damage), default=None)
+        entries = [e for e in bag.entries() if limit is None or bag.offset_of(e) < limit]
+        self.entries = entries
+        self.i = 0
+
+    def peek(self, k: int = 0) -> tuple[str, int] | None:
+        if self.i + k >= len(self.entries):
+            return None
+        e = self.entries[self.i + k]
+        return self.bag.topic_of(e), e.time
+
+    def take(self) -> bytes:
+        e = self.entries[self.i]
+        self.i += 1
+        return self.bag.read(e)
+
+    def meta(self) -> dict[str, Any] | None:
+        import json
+
+        head = self.peek()
+        if head is None or head[0] != META_TOPIC:
+            return None
+        raw = self.take()
+        try:
+            text = _typestore().deserialize_ros1(raw, "std_msgs/msg/String").data
+            return dict(json.loads(text))
+        except (ValueError, TypeError, KeyError):
+            return None
+
+
+def _earlier_run(out: Path, tmp: Path, old: Path, meta: dict[str, Any]) -> tuple[_Earlier | None, list[str]]:
+    """The earlier output to resume from: of ``out``, its partial file and the source of an interrupted resume,
+    the one made with the same input and options that holds the most records."""
+    best: _Earlier | None = None
+    why: list[str] = []
+    for path in (out, tmp, old):
+        if not path.exists():
+            continue
+        try:
+            bag = Bag(path, recover=True)
+        except BagError as exc:
+            why.append(str(exc))
+            continue
+        cand = _Earlier(bag)
+        got = cand.meta()
+        if got != meta:
+            diff = (
+                "no replay record"
+                if got is None
+                else ", ".join(sorted(k for k in set(got) | set(meta) if got.get(k) != meta.get(k)))
+            )
+            why.append(f"{path} is not a replay of this input with these options ({diff})")
+            bag.close()
+            continue
+        if best is None or len(cand.entries) > len(best.entries):
+            if best is not None:
+                best.bag.close()
+            best = cand
+        else:
+            bag.close()
+    return best, why
+
+
+def replay(
+    inp: Path,
+    out: Path,
+    opts: ReplayOptions | None = None,
+    show_progress: bool = True,
+    resume: bool = False,
+    max_frames: int | None = None,
+) -> ReplayReport:
+    """Replays ``inp`` into a new bag ``out`` (never the input; written to ``.OUT.partial``, then renamed).
+
+    ``resume`` continues a replay into ``out`` that stopped (killed: its partial file; ``max_frames``: an output
+    that ends early): the frames it wrote are taken as they are, the rest computed, with the same result as an
+    uninterrupted run. ``max_frames`` stops after that many depth frames (a complete, shorter output)."""
+    import json
+
     from rosbags.rosbag1 import Writer
 
     opts = opts or ReplayOptions()
+    if not isinstance(opts, ReplayOptions):
+        raise TypeError(f"opts: {type(opts).__name__}, expected ReplayOptions")
+    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(max_frames, int)):
+        raise TypeError(f"max_frames: {type(max_frames).__name__}, expected int")
+    if max_frames is not None and max_frames < 1:
+        raise ReplayError(f"max_frames = {max_frames}: expected >= 1")
     inp, out = Path(inp), Path(out)
     if not inp.exists():
         raise ReplayError(f"{inp}: no such bag")
-    if out.exists() and (out.resolve() == inp.resolve() or os.path.samefile(out, inp)):
-        raise ReplayError(f"output {out} is the input: the replay never overwrites its input")
-    if out.exists():
-        raise ReplayError(f"output {out} exists: remove it or choose another name")
+    tmp = partial_path(out)
+    old = tmp.with_name(tmp.name + ".old")
+    for p in (out, tmp, old):
+        if p.exists() and os.path.samefile(p, inp):
+            raise ReplayError(f"output {p} is the input: the replay never overwrites its input")
+    if not resume:
+        if out.exists():
+            raise ReplayError(
+                f"output {out} exists: remove it or choose another name (--resume continues a replay into it that "
+                "stopped early)"
+            )
+        for p in (tmp, old):
+            if p.exists():
+                raise ReplayError(
+                    f"{p} is left from a replay into {out} that was interrupted: --resume continues it, or remove it"
+                )
     ts = _typestore()
-    T = ts.types
     report = ReplayReport()
-    tmp = out.with_name(f".{out.name}.partial-{os.getpid()}")
     started = time.monotonic()
-    reader = open_bag(inp)
     try:
-        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
+        bag = open_bag(inp, recover=opts.skip_bad)
+    except BagError as exc:
+        if "intact messages" in str(exc):
+            raise ReplayError(f"{exc} (--skip-bad replays them)") from exc
+        raise
+    earlier: _Earlier | None = None
+    keep_partial = False
+    written = False
+    try:
+        for d in bag.damage:
+            report.bad_messages += d.lost or 0
+            report.problems.append(f"damaged: {d}")
+        depth_topic, info_topic = _pick_topics(list(bag.connections), opts)
         ns = depth_topic.rsplit("/", 2)[0] if depth_topic.count("/") >= 2 else ""
         scan_topic = opts.scan_topic or f"{ns}/scan"
         cleaned_topic = opts.cleaned_topic or f"{depth_topic}/processed"
         report.depth_topic, report.scan_topic = depth_topic, scan_topic
-        frames_total = sum(c.msgcount for c in reader.connections if c.topic == depth_topic)
-        tf = TfBuffer()
-        # tf first (a frame may come before the transform at its stamp): read all of it.
-        for conn, _, raw in _messages(
-            reader, [c for c in reader.connections if c.topic in ("/tf", "/tf_static")], opts, report
-        ):
-            tf.add(ts.deserialize_ros1(raw, conn.msgtype), static=conn.topic == "/tf_static")
-        config = _core.Config(**opts.config)
-        pipe: _core.Pipeline | None = None
-        camera: Any = None
-        infos: dict[float, Any] = {}
+        meta = {
+            "tool": "kinect-pipeline replay",
+            "input": _input_identity(inp),
+            "depth_topic": depth_topic,
+            "info_topic": info_topic,
+            "options": {k: v for k, v in vars(opts).items() if k != "skip_bad"},
+        }
+
+        def damaged(d: Damage) -> None:
+            if not opts.skip_bad:
+                raise ReplayError(f"{inp}: damaged message record at {d} (use --skip-bad to go on)")
+            report.bad_messages += 1
+            report.problems.append(f"damaged, skipped: {d}")
+
+        def decode(conn: Any, raw: bytes, offset: int) -> Any:
+            try:
+                return ts.deserialize_ros1(raw, conn.msgtype)
+            except Exception as exc:  # rosbags raises several kinds on garbage
+                damaged(Damage(offset, conn.topic, f"cannot be decoded as {conn.msgtype}: {exc}", lost=1))
+                return None
+
+        tf = read_tf(bag, damaged)
+        if resume:
+            earlier, why = _earlier_run(out, tmp, old, meta)
+            if earlier is None:
+                raise ReplayError(
+                    "--resume: nothing to resume: "
+                    + ("; ".join(why) if why else f"neither {out} nor {tmp} exists (start without --resume)")
+                )
+            if earlier.bag.path == tmp:  # read it while the continuation is written to tmp
+                earlier.bag.close()
+                os.replace(tmp, old)
+                earlier = _Earlier(Bag(old, recover=True))
+                earlier.meta()
+            elif tmp.exists():
+                tmp.unlink()  # a shorter partial than the one resumed from
+        frames = _Frames(ts, tf, opts, report, depth_topic)
+        frames_total = sum(c.msgcount for c in bag.connections if c.topic == depth_topic)
+        if max_frames is not None:
+            frames_total = min(frames_total, max_frames)
         with Writer(tmp) as w:
             outs: dict[int, Any] = {}
-            for c in reader.connections:
+            for c in bag.connections:
                 outs[c.id] = w.add_connection(
                     c.topic,
                     c.msgtype,
@@ -234,61 +525,107 @@ def replay(inp: Path, out: Path, opts: ReplayOptions | None = None, show_progres
                 )
             c_scan = w.add_connection(scan_topic, "sensor_msgs/msg/LaserScan", typestore=ts)
             c_clean = w.add_connection(cleaned_topic, "sensor_msgs/msg/Image", typestore=ts)
-            it: Iterator[Any] = _messages(reader, list(reader.connections), opts, report)
+            c_meta = w.add_connection(META_TOPIC, "std_msgs/msg/String", typestore=ts)
+            entries = bag.entries()
+            first_ns = entries[0].time if entries else 0
+            meta_msg = ts.types["std_msgs/msg/String"](data=json.dumps(meta, sort_keys=True))
+            w.write(c_meta, first_ns, ts.serialize_ros1(meta_msg, "std_msgs/msg/String"))
+            written = True
+            it: Iterator[Any] = bag.records(on_damage=damaged)
             if show_progress:
                 from .demo import progress
 
                 it = _progress_frames(it, depth_topic, frames_total, progress)
-            for conn, t_ns, raw in it:
+            for conn, t_ns, raw, off in it:
+                is_depth = conn.topic == depth_topic
+                if is_depth and max_frames is not None and report.frames >= max_frames:
+                    report.stopped_early = True
+                    break
+                if earlier is not None:
+                    reused = _reuse(earlier, conn, t_ns, raw, is_depth, scan_topic, cleaned_topic)
+                    if reused is None:  # the earlier run ends here: compute from this message on
+                        report.warm_up = frames.warm_up()
+                        earlier.bag.close()
+                        earlier = None
+                    else:
+                        w.write(outs[conn.id], t_ns, raw)
+                        if conn.topic == info_topic:
+                            msg = decode(conn, raw, off)
+                            if msg is not None:
+                                frames.info(msg)
+                        if is_depth:
+                            report.frames += 1
+                            report.reused += 1
+                            if reused:
+                                img = decode(conn, raw, off)
+                                if img is not None:
+                                    frames.processed_before(img)
+                                w.write(c_scan, t_ns, reused[0])
+                                w.write(c_clean, t_ns, reused[1])
+                        continue
                 w.write(outs[conn.id], t_ns, raw)
                 if conn.topic == info_topic:
-                    msg = ts.deserialize_ros1(raw, conn.msgtype)
-                    infos[_stamp(msg.header)] = msg
+                    msg = decode(conn, raw, off)
+                    if msg is not None:
+                        frames.info(msg)
                     continue
-                if conn.topic != depth_topic:
+                if not is_depth:
                     continue
                 report.frames += 1
-                img = ts.deserialize_ros1(raw, conn.msgtype)
-                stamp = _stamp(img.header)
-                info = infos.get(stamp) or (infos[max(infos)] if infos else None)
-                if info is None:
-                    report.problems.append(f"{depth_topic} at {stamp:.3f} s: no camera_info yet; frame skipped")
+                img = decode(conn, raw, off)
+                if img is None:
                     continue
-                cam = camera_from_info(info)
-                if pipe is None or repr(cam) != repr(camera):
-                    pipe, camera = _core.Pipeline(cam, config), cam
-                try:
-                    depth = image_to_array(img)
-                except ReplayError as exc:
-                    report.problems.append(f"{depth_topic} at {stamp:.3f} s: {exc}")
+                res = frames.process(img)
+                if res is None:
                     continue
-                try:
-                    q, tr = tf.lookup(opts.base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
-                    height, pitch, roll, _ = _core.pose_from_optical_transform((q, tr), opts.base_frame_height)
-                    res = pipe.process_pose(depth, height, pitch, roll)
-                    report.pose_from_tf += 1
-                except LookupError as exc:
-                    if opts.pose_fallback == "skip":
-                        report.skipped_no_pose += 1
-                        report.problems.append(f"{depth_topic} at {stamp:.3f} s: {exc}; frame skipped")
-                        continue
-                    report.pose_fallback += 1
-                    if report.pose_fallback == 1:
-                        report.problems.append(f"{depth_topic} at {stamp:.3f} s: {exc}; static pose used (and later)")
-                    res = pipe.process(depth)
                 report.processed += 1
-                _write_outputs(w, ts, T, c_scan, c_clean, t_ns, img, res, opts.scan_frame)
+                _write_outputs(w, ts, ts.types, c_scan, c_clean, t_ns, img, res, opts.scan_frame)
         report.seconds = time.monotonic() - started
         os.replace(tmp, out)
+        old.unlink(missing_ok=True)
         return report
+    except KeyboardInterrupt:
+        keep_partial = written
+        raise
     finally:
-        reader.close()
-        if tmp.exists():
+        bag.close()
+        if earlier is not None:
+            earlier.bag.close()
+        if tmp.exists() and not keep_partial:
             tmp.unlink()
 
 
+def _reuse(
+    earlier: _Earlier, conn: Any, t_ns: int, raw: bytes, is_depth: bool, scan_topic: str, cleaned_topic: str
+) -> tuple[bytes, bytes] | tuple[()] | None:
+    """Takes this input message's records from the earlier run: () for a message without outputs, (scan, cleaned)
+    for a depth frame it processed, None where the earlier run ends (or ends inside this frame's records)."""
+    head = earlier.peek()
+    if head is None:
+        return None
+    if head != (conn.topic, t_ns):
+        raise ReplayError(
+            f"{earlier.bag.path}: record {earlier.i} is {head[0]} at {head[1] / 1e9:.9f} s, where this replay writes "
+            f"{conn.topic} at {t_ns / 1e9:.9f} s: it was not made from this input; remove it"
+        )
+    if not is_depth:
+        if earlier.take() != raw:
+            raise ReplayError(f"{earlier.bag.path}: {conn.topic} at {t_ns / 1e9:.9f} s differs from the input's")
+        return ()
+    nxt, nxt2 = earlier.peek(1), earlier.peek(2)
+    if nxt is None:
+        return None  # processed or not: cannot tell
+    if nxt == (scan_topic, t_ns):
+        if nxt2 != (cleaned_topic, t_ns):
+            return None  # cut between the frame's outputs
+        earlier.take()
+        return earlier.take(), earlier.take()
+    earlier.take()
+    return ()  # skipped by the earlier run (no pose, no camera_info): the next record is the next input message
+
+
 def _progress_frames(it: Iterator[Any], depth_topic: str, total: int, progress: Any) -> Iterator[Any]:
-    """Advances the progress bar by depth frames, not by messages."""
+    """Advances the progress bar (frames/s) by depth frames, not by messages."""
     bar = iter(progress(range(total), total, "replay"))
     for item in it:
         if item[0].topic == depth_topic:
@@ -296,35 +633,6 @@ def _progress_frames(it: Iterator[Any], depth_topic: str, total: int, progress: 
         yield item
     for _ in bar:
         pass
-
-
-def _messages(reader: Any, connections: list[Any], opts: ReplayOptions, report: ReplayReport) -> Iterator[Any]:
-    """Messages in time order; a damaged chunk stops with a message naming topic and position, or is skipped."""
-    from rosbags.rosbag1 import ReaderError
-
-    if not connections:
-        return
-    count = 0
-    gen = reader.messages(connections=connections)
-    while True:
-        try:
-            conn, t_ns, raw = next(gen)
-        except StopIteration:
-            return
-        except (ReaderError, ValueError, KeyError, IndexError) as exc:
-            where = f"after message {count} (bag time {_last_time(report):.3f} s)"
-            if not opts.skip_bad:
-                raise ReplayError(f"{reader.path}: damaged data {where}: {exc} (use --skip-bad to go on)") from exc
-            report.bad_messages += 1
-            report.problems.append(f"damaged data {where}: {exc}; the rest of that chunk was skipped")
-            return
-        count += 1
-        report.__dict__["_last_ns"] = t_ns
-        yield conn, t_ns, raw
-
-
-def _last_time(report: ReplayReport) -> float:
-    return float(report.__dict__.get("_last_ns", 0)) * 1e-9
 
 
 def _write_outputs(
@@ -365,5 +673,12 @@ def format_report(r: ReplayReport) -> str:
         f"({rate:.1f} frames/s); pose from tf {r.pose_from_tf}, fallback {r.pose_fallback}, "
         f"skipped without pose {r.skipped_no_pose}, damaged {r.bad_messages}"
     ]
+    if r.reused:
+        lines.append(
+            f"  resumed: {r.reused} frames taken from the earlier run, {r.warm_up} re-processed for the confidence "
+            f"history, {r.processed} computed"
+        )
+    if r.stopped_early:
+        lines.append(f"  stopped after {r.frames} frames (--max-frames): --resume continues it")
     lines += [f"  note: {p}" for p in r.problems[:20]]
     return "\n".join(lines)

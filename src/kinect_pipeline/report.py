@@ -19,17 +19,18 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .demo import _save_atomic, plot_frame, progress
+from .demo import _save_atomic, plot_frame
 from .replay import (
     ReplayError,
     ReplayOptions,
-    TfBuffer,
     _pick_topics,
     _stamp,
     _typestore,
     camera_from_info,
+    depth_frames,
     image_to_array,
     open_bag,
+    read_tf,
 )
 
 
@@ -65,10 +66,7 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
     reader = open_bag(bag)
     try:
         depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
-        tf = TfBuffer()
-        tf_conns = [c for c in reader.connections if c.topic in ("/tf", "/tf_static")]
-        for conn, _, raw in reader.messages(connections=tf_conns):
-            tf.add(ts.deserialize_ros1(raw, conn.msgtype), static=conn.topic == "/tf_static")
+        tf = read_tf(reader)
         lidar_topic = next(
             (
                 c.topic
@@ -89,24 +87,11 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
                 pending["gt_scan"][st] = np.array(msg.ranges, np.float32)
             else:
                 pending["gt_labels"][st] = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
-        conns = [c for c in reader.connections if c.topic in (depth_topic, info_topic)]
-        total = sum(c.msgcount for c in conns if c.topic == depth_topic)
         config = dict(opts.config)
         pipe = pipe_f = None
-        infos: dict[float, Any] = {}
-        bar = iter(progress(range(total), total, "report")) if show_progress else None
         best_score = -1.0
-        for conn, _, raw in reader.messages(connections=conns):
-            msg = ts.deserialize_ros1(raw, conn.msgtype)
+        for msg, info in depth_frames(reader, depth_topic, info_topic, "report" if show_progress else None):
             st = _stamp(msg.header)
-            if conn.topic == info_topic:
-                infos[st] = msg
-                continue
-            info = infos.get(st) or (infos[max(infos)] if infos else None)
-            if info is None:
-                continue
-            if bar is not None:
-                next(bar, None)
             cam = camera_from_info(info)
             if pipe is None:
                 pipe = _core.Pipeline(cam, _core.Config(**config))
@@ -152,9 +137,6 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
             if score > best_score:
                 best_score = score
                 out.showcase = (depth.copy(), res, float(pipe.config.max_depth))
-        if bar is not None:
-            for _ in bar:
-                pass
     finally:
         reader.close()
     if not out.frames:

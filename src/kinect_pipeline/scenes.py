@@ -71,6 +71,27 @@ def boxes_scene() -> Scene:
     )
 
 
+def stair_scene(edge: float = 2.5, step: float = 0.17) -> Scene:
+    """A stair down (or a loading dock edge): the floor ends ``edge`` metres ahead across the whole view and the
+    next level is ``step`` metres lower; a box on the upper level as something the scan must still see."""
+    return Scene(
+        boxes=((1.6, 1.9, 0.5, 0.8, 0.0, 0.4),),
+        holes=((edge, 30.0, -30.0, 30.0),),
+        hole_depth=step,
+        names=("box 40 cm",),
+    )
+
+
+def hole_scene() -> Scene:
+    """A 60 x 80 cm hole in the floor 2 m ahead, slightly to the left, 50 cm deep, beside a 30 cm box."""
+    return Scene(
+        boxes=((1.8, 2.0, -0.9, -0.6, 0.0, 0.3),),
+        holes=((2.0, 2.6, -0.2, 0.6),),
+        hole_depth=0.5,
+        names=("box 30 cm",),
+    )
+
+
 @dataclass
 class Frame:
     """One rendered frame: the encoded depth the pipeline reads and the ground truth."""

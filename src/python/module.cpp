@@ -100,7 +100,7 @@ py::array_t<float> vecToArray(const std::vector<float>& v)
 struct PyResult
 {
   py::array depth, labels;
-  py::array_t<float> ranges, intensities;
+  py::array_t<float> ranges, intensities, cliff_ranges;
   float angle_min, angle_max, angle_increment, range_min, range_max;
   py::dict counts, times;
 };
@@ -135,6 +135,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
     self.result.labels = cv::Mat(in.rows, in.cols, CV_8UC1, labels_out);
     call(in, self.result);
     fr.scan = self.result.scan;  // copied under the lock: another thread may process next
+    fr.cliff = self.result.cliff;
     fr.counts = self.result.counts;
     fr.times = self.result.times;
     if (self.result.depth.data != depth_out || self.result.labels.data != labels_out)
@@ -142,6 +143,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
   }
   res.ranges = vecToArray(fr.scan.ranges);
   res.intensities = vecToArray(fr.scan.intensities);
+  res.cliff_ranges = vecToArray(fr.cliff.ranges);
   res.angle_min = fr.scan.angle_min;
   res.angle_max = fr.scan.angle_max;
   res.angle_increment = fr.scan.angle_increment;
@@ -195,6 +197,9 @@ void setConfigField(Config& c, const std::string& key, const py::handle& v)
   else if (key == "confidence_distance") num(c.confidence_distance);
   else if (key == "min_intensity") num(c.min_intensity);
   else if (key == "intensity_filter") c.intensity_filter = py::cast<bool>(v);
+  else if (key == "cliff_scan") c.cliff_scan = py::cast<bool>(v);
+  else if (key == "cliff_in_scan") c.cliff_in_scan = py::cast<bool>(v);
+  else if (key == "cliff_min_pixels") c.cliff_min_pixels = py::cast<int>(v);
   else if (key == "num_threads") c.num_threads = py::cast<int>(v);
   else
     throw py::type_error("Config: unknown field '" + key + "'");
@@ -203,7 +208,7 @@ void setConfigField(Config& c, const std::string& key, const py::handle& v)
 const char* kConfigFields[] = {"sensor_height", "sensor_pitch", "sensor_roll", "ceiling_height", "max_depth",
                                "geometry", "projection", "open_kernel_size", "open_kernel_shape",
                                "threshold_curve", "range_min", "range_max", "scan_beams", "scan_fov",
-                               "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
+                               "cliff_scan", "cliff_in_scan", "cliff_min_pixels", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
                                "num_threads"};
 
 }  // namespace
@@ -264,6 +269,9 @@ PYBIND11_MODULE(_core, m)
       .def_readwrite("range_max", &Config::range_max)
       .def_readwrite("scan_beams", &Config::scan_beams)
       .def_readwrite("scan_fov", &Config::scan_fov)
+      .def_readwrite("cliff_scan", &Config::cliff_scan)
+      .def_readwrite("cliff_in_scan", &Config::cliff_in_scan)
+      .def_readwrite("cliff_min_pixels", &Config::cliff_min_pixels)
       .def_readwrite("confidence_window", &Config::confidence_window)
       .def_readwrite("confidence_distance", &Config::confidence_distance)
       .def_readwrite("min_intensity", &Config::min_intensity)
@@ -296,6 +304,9 @@ PYBIND11_MODULE(_core, m)
                     "uint8 per pixel: 0 kept, 1 invalid, 2 floor, 3 above ceiling plane, 4 below floor")
       .def_readonly("ranges", &PyResult::ranges, "float32 [m]; +Inf no return, -Inf too close, NaN no data")
       .def_readonly("intensities", &PyResult::intensities, "float32 confidence in [0, 1]")
+      .def_readonly("cliff_ranges", &PyResult::cliff_ranges,
+                    "float32 [m] per beam: nearest below-floor pixel (a hole, a stair down) with at least "
+                    "cliff_min_pixels in the beam; +Inf none, NaN no data; empty if cliff_scan is off")
       .def_readonly("angle_min", &PyResult::angle_min)
       .def_readonly("angle_max", &PyResult::angle_max)
       .def_readonly("angle_increment", &PyResult::angle_increment)

@@ -59,6 +59,9 @@ NodeSettings settingsFromConfig(const KinectPipelineConfig& c)
   k.range_max = c.range_max;
   k.scan_beams = c.scan_beams;
   k.scan_fov = c.scan_fov;
+  k.cliff_scan = c.cliff_scan;
+  k.cliff_in_scan = c.cliff_in_scan;
+  k.cliff_min_pixels = c.cliff_min_pixels;
   k.confidence_window = c.confidence_window;
   k.confidence_distance = c.confidence_distance;
   k.min_intensity = c.min_intensity;
@@ -114,6 +117,7 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
       nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_.update(); });
 
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10);
+  cliff_pub_ = nh_.advertise<sensor_msgs::LaserScan>("cliff_scan", 10);
   depth_pub_ = it_.advertise("image_processed", 1);
   debug_pub_ = it_.advertise("image_labels", 1);
   imu_sub_ = nh_.subscribe("imu", 50, &KinectPipelineRos::imuCb, this);
@@ -406,6 +410,12 @@ void KinectPipelineRos::processImage(const sensor_msgs::ImageConstPtr& image,
   auto scan = boost::make_shared<sensor_msgs::LaserScan>();
   conversions::toLaserScan(result_.scan, image->header, s.scan_frame, scan_time, *scan);
   scan_pub_.publish(scan);
+  if (!result_.cliff.ranges.empty())
+  {
+    auto cliff = boost::make_shared<sensor_msgs::LaserScan>();
+    conversions::toLaserScan(result_.cliff, image->header, s.scan_frame, scan_time, *cliff);
+    cliff_pub_.publish(cliff);
+  }
   if (depth_pub_.getNumSubscribers() > 0)
   {
     auto out = boost::make_shared<sensor_msgs::Image>();

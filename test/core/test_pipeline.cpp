@@ -160,19 +160,7 @@ Ref reference(const Camera& cam, const Config& cfg, const cv::Mat& in, double pi
       if (ref.labels.at<std::uint8_t>(r, u) == kKept)
         rng[u] = opened.at<T>(r, u) * scale * k;
     }
-    for (int u = 0; u < in.cols; ++u)
-    {
-      const int b = static_cast<int>(std::floor(f[u]));
-      if (std::isfinite(rng[u]) && b >= 0 && b < beams)
-        ref.ranges[b] = std::min(ref.ranges[b], rng[u]);
-      if (u + 1 == in.cols)
-        break;
-      const double lo_f = std::min(f[u], f[u + 1]), hi_f = std::max(f[u], f[u + 1]);
-      const double r_lo = f[u] < f[u + 1] ? rng[u] : rng[u + 1], r_hi = f[u] < f[u + 1] ? rng[u + 1] : rng[u];
-      for (int k = static_cast<int>(std::floor(lo_f)) + 1; k <= static_cast<int>(std::floor(hi_f)) - 1; ++k)
-        if (k >= 0 && k < beams)
-          ref.ranges[k] = std::min(ref.ranges[k], (k + 0.5) < 0.5 * (lo_f + hi_f) ? r_lo : r_hi);
-    }
+    kp_test::binRow(f, rng, ref.ranges, nullptr);
   }
   for (double& x : ref.ranges)
     x = x < cfg.range_min ? -kInf : (x > cfg.range_max ? kInf : x);

@@ -1,6 +1,7 @@
 // Helpers shared by the core tests: slow, obvious reference geometry in double precision.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -53,4 +54,31 @@ inline double slowCurve(const std::vector<kinect_pipeline::CurvePoint>& c, doubl
              (c[i].threshold - c[i - 1].threshold) * (d - c[i - 1].depth) / (c[i].depth - c[i - 1].depth);
   return c.back().threshold;
 }
+/**
+ * Reference binning of one row: each finite range in the bin of its pixel centre's fractional bin position f[u];
+ * bins between two neighbouring centres go to the nearer centre. counts (if given) counts the finite ranges.
+ */
+inline void binRow(const std::vector<double>& f, const std::vector<double>& rng, std::vector<double>& ranges,
+                   std::vector<int>* counts)
+{
+  const int beams = static_cast<int>(ranges.size()), w = static_cast<int>(f.size());
+  auto put = [&](int k, double v) {
+    if (k < 0 || k >= beams || !std::isfinite(v))
+      return;
+    ranges[k] = std::min(ranges[k], v);
+    if (counts)
+      ++(*counts)[k];
+  };
+  for (int u = 0; u < w; ++u)
+  {
+    put(static_cast<int>(std::floor(f[u])), rng[u]);
+    if (u + 1 == w)
+      break;
+    const double lo_f = std::min(f[u], f[u + 1]), hi_f = std::max(f[u], f[u + 1]);
+    const double r_lo = f[u] < f[u + 1] ? rng[u] : rng[u + 1], r_hi = f[u] < f[u + 1] ? rng[u + 1] : rng[u];
+    for (int k = static_cast<int>(std::floor(lo_f)) + 1; k <= static_cast<int>(std::floor(hi_f)) - 1; ++k)
+      put(k, (k + 0.5) < 0.5 * (lo_f + hi_f) ? r_lo : r_hi);
+  }
+}
+
 }  // namespace kp_test

@@ -47,6 +47,19 @@ def test_recovers_the_true_pose(
     assert f"sensor_height:={d['height']:.4f}" in d["launch_args"]
 
 
+def test_plot_shows_the_floor_under_the_calibrated_pose(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    f = render_frame(CAM, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=7)
+    path, png = tmp_path / "f.png", tmp_path / "plot.png"
+    cv2.imwrite(str(path), f.depth)
+    rc, d, _ = run_cli(capsys, str(path), "--intrinsics", *INTR, "--plot", str(png))
+    assert rc == 0 and d["found"]
+    img = cv2.imread(str(png))
+    assert img is not None and img.shape[0] > 300 and img.shape[1] > 900
+    # The floor colour of the label panel covers about the floor fraction the calibration reports.
+    green = (img[:, :, 1] > 150) & (img[:, :, 0] < 80) & (img[:, :, 2] < 80)
+    assert green.any()
+
+
 def test_several_frames_average(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     paths = []
     for i in range(3):
@@ -99,3 +112,84 @@ def test_bad_files_are_named(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     cv2.imwrite(str(bad), np.zeros((10, 10, 3), np.uint8))
     rc = main(["calibrate", str(bad), "--intrinsics", *INTR])
     assert rc == 1 and "single-channel" in capsys.readouterr().err
+
+
+# -- calibrate --bag: the tf-provided pose of a moving base against the floor seen in each frame ----------------
+
+
+@pytest.fixture(scope="module")
+def tf_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Segway bags (pitching -3..+6 deg) whose tf is right, and whose URDF states the mount 1 deg too far down and
+    5 cm too high, and one with a 0.5 deg roll error, in two encodings."""
+    pytest.importorskip("rosbags")
+    from kinect_pipeline.bag import write_sequence_bag
+
+    d = tmp_path_factory.mktemp("tfbags")
+    out = {}
+    for name, err, enc in (
+        ("ok", (0.0, 0.0, 0.0), "16UC1"),
+        ("pitch_height", (0.05, math.radians(1.0), 0.0), "16UC1"),
+        ("roll_8bit", (0.0, 0.0, math.radians(-0.5)), "8UC1"),
+    ):
+        out[name] = d / f"{name}.bag"
+        write_sequence_bag(out[name], frames=16, encoding=enc, seed=4, tf_error=err)
+    return out
+
+
+def _check(capsys: pytest.CaptureFixture[str], bag: Path, *extra: str) -> dict:
+    rc = main(["calibrate", "--bag", str(bag), "--json", *extra])
+    out = capsys.readouterr()
+    assert rc == 0, out.err
+    return json.loads(out.out)
+
+
+@pytest.mark.parametrize(
+    ("name", "height", "pitch_deg", "roll_deg"),
+    [("ok", 0.0, 0.0, 0.0), ("pitch_height", 0.05, 1.0, 0.0), ("roll_8bit", 0.0, 0.0, -0.5)],
+)
+def test_bag_check_recovers_a_known_tf_error(
+    tf_bags: dict[str, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    name: str,
+    height: float,
+    pitch_deg: float,
+    roll_deg: float,
+) -> None:
+    plot = tmp_path / "tf.png"
+    d = _check(capsys, tf_bags[name], "--plot", str(plot))
+    s = d["summary"]
+    assert s["frames"] == 16 and s["frames_with_floor"] == 16
+    assert s["height"]["median"] == pytest.approx(height, abs=0.01)
+    assert math.degrees(s["pitch"]["median"]) == pytest.approx(pitch_deg, abs=0.2)
+    assert math.degrees(s["roll"]["median"]) == pytest.approx(roll_deg, abs=0.2)
+    # A constant error: every frame shows it, whatever the base's pitch is doing.
+    assert s["height"]["p95_abs"] <= abs(height) + 0.01 and s["height"]["max_abs"] >= s["height"]["p95_abs"]
+    assert math.degrees(s["pitch"]["p95_abs"]) <= abs(pitch_deg) + 0.2
+    tf_pitch = [f["tf_pitch"] for f in d["frames"]]
+    assert math.degrees(max(tf_pitch) - min(tf_pitch)) > 3, "the base pitched"
+    for f in d["frames"]:
+        assert f["diff_pitch"] == pytest.approx(f["tf_pitch"] - f["floor_pitch"])
+    assert plot.stat().st_size > 20000
+
+
+def test_bag_check_text_and_bad_input(
+    tf_bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["calibrate", "--bag", str(tf_bags["pitch_height"])]) == 0
+    text = capsys.readouterr().out
+    assert "| pitch [deg] | +0.9" in text and "| height [m] | +0.04" in text and "p95 abs" in text
+    assert main(["calibrate", "--bag", str(tmp_path / "none.bag")]) == 1
+    assert "none.bag: no such bag" in capsys.readouterr().err
+    assert main(["calibrate", "--bag", str(tf_bags["ok"]), "x.png"]) == 1
+    assert "give no frame files" in capsys.readouterr().err
+    assert main(["calibrate"]) == 1
+    assert "--intrinsics" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="tf_error"):
+        from kinect_pipeline.bag import write_sequence_bag
+
+        write_sequence_bag(tmp_path / "e.bag", frames=1, tf_error=(0.0, math.nan, 0.0))
+    from kinect_pipeline.calibrate import check_tf
+
+    with pytest.raises(TypeError, match="bag"):
+        check_tf(3)  # type: ignore[arg-type]

@@ -158,3 +158,109 @@ def test_report_writes_pictures_and_an_index(bag: Path, tmp_path: Path) -> None:
         assert f'src="{name}"' in page
     assert summary["frames"] == FRAMES
     assert 0.0 <= summary["phantom_beams"] <= 1.0 and summary["label_agreement_min"] > 0.95
+
+
+# -- resuming an interrupted replay ----------------------------------------------------------------------------
+
+
+def messages(path: Path) -> dict[str, list[tuple[int, bytes]]]:
+    """Every message of a bag per topic: (time, raw bytes), read with rosbags."""
+    from rosbags.rosbag1 import Reader
+
+    out: dict[str, list[tuple[int, bytes]]] = {}
+    with Reader(path) as r:
+        for c, t, raw in r.messages():
+            out.setdefault(c.topic, []).append((t, bytes(raw)))
+    return out
+
+
+@pytest.fixture(scope="module")
+def long_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, list[tuple[int, bytes]]]]:
+    """A 40-frame bag and the messages of its uninterrupted replay (with the intensity filter: the confidence
+    history decides which beams are NaN, so a resumed run must restore it exactly)."""
+    d = tmp_path_factory.mktemp("long")
+    path = d / "long.bag"
+    write_sequence_bag(path, frames=40, encoding="16UC1", seed=5)
+    replay(path, d / "clean.bag", ReplayOptions(config={"intensity_filter": True}), show_progress=False)
+    return path, messages(d / "clean.bag")
+
+
+FILTER = ReplayOptions(config={"intensity_filter": True})
+
+
+@pytest.mark.parametrize("stop", [1, 4, 13, 39])
+def test_resume_after_a_frame_limit_equals_an_uninterrupted_run(long_bag: tuple, tmp_path: Path, stop: int) -> None:
+    path, clean = long_bag
+    out = tmp_path / "out.bag"
+    first = replay(path, out, FILTER, show_progress=False, max_frames=stop)
+    assert first.stopped_early and first.processed == stop
+    assert len(messages(out)["/kinect2/scan"]) == stop
+    second = replay(path, out, FILTER, show_progress=False, resume=True)
+    assert second.reused == stop and second.processed == 40 - stop, "only the missing frames are computed"
+    assert second.warm_up <= 2 * 5 - 1
+    got = messages(out)
+    assert got.keys() == clean.keys()
+    for topic in clean:
+        assert got[topic] == clean[topic], topic
+    assert not list(tmp_path.glob(".out.bag*"))
+
+
+def test_resume_after_the_process_was_killed_equals_an_uninterrupted_run(long_bag: tuple, tmp_path: Path) -> None:
+    import os
+    import signal
+    import sys
+    import time
+
+    path, clean = long_bag
+    out = tmp_path / "out.bag"
+    partial = tmp_path / ".out.bag.partial"
+    cmd = [sys.executable, "-m", "kinect_pipeline.cli", "replay", str(path), "-o", str(out), "--quiet"]
+    cmd += ["--param", "intensity_filter=true"]
+    env = dict(os.environ, OMP_NUM_THREADS="1")
+    for _attempt in range(3):  # killed once a few chunks are on disk; again if it finished first
+        proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        deadline = time.monotonic() + 120
+        while proc.poll() is None and time.monotonic() < deadline:
+            if partial.exists() and partial.stat().st_size > 6_000_000:
+                os.kill(proc.pid, signal.SIGKILL)
+                break
+            time.sleep(0.002)
+        proc.wait(timeout=60)
+        proc.stderr.close()  # type: ignore[union-attr]
+        if proc.returncode == -signal.SIGKILL:
+            break
+        out.unlink(missing_ok=True)
+    assert proc.returncode == -signal.SIGKILL, "the replay finished before it could be killed, three times"
+    assert partial.exists() and not out.exists()
+    refused = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert refused.returncode == 1 and "--resume" in refused.stderr and str(partial) in refused.stderr
+    resumed = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    taken = int(resumed.stdout.split("resumed: ")[1].split()[0])
+    assert 1 <= taken < 40, resumed.stdout
+    got = messages(out)
+    for topic in clean:
+        assert got[topic] == clean[topic], topic
+    assert not list(tmp_path.glob(".out.bag*")), "the partial files are gone"
+
+
+def test_resume_refuses_another_input_or_other_options(long_bag: tuple, bag: Path, tmp_path: Path) -> None:
+    path, _ = long_bag
+    out = tmp_path / "out.bag"
+    with pytest.raises(ReplayError, match="nothing to resume"):
+        replay(path, out, FILTER, show_progress=False, resume=True)
+    replay(path, out, FILTER, show_progress=False, max_frames=3)
+    before = sha(out)
+    with pytest.raises(ReplayError, match=r"not a replay of this input with these options \(options\)"):
+        replay(path, out, ReplayOptions(config={"intensity_filter": False}), show_progress=False, resume=True)
+    with pytest.raises(ReplayError, match=r"\(depth_topic|\(input"):
+        replay(bag, out, FILTER, show_progress=False, resume=True)
+    assert sha(out) == before, "a refused resume leaves the earlier output as it was"
+    other = tmp_path / "other.bag"
+    other.write_bytes(bag.read_bytes())
+    with pytest.raises(ReplayError, match="no replay record"):
+        replay(path, other, FILTER, show_progress=False, resume=True)
+    with pytest.raises(ReplayError, match="max_frames = 0"):
+        replay(path, tmp_path / "z.bag", max_frames=0)
+    with pytest.raises(TypeError, match="max_frames"):
+        replay(path, tmp_path / "z.bag", max_frames=2.5)  # type: ignore[arg-type]

@@ -105,7 +105,7 @@ private:
   image_transport::ImageTransport it_;
   image_transport::CameraSubscriber sub_;
   image_transport::Publisher depth_pub_, debug_pub_;
-  ros::Publisher scan_pub_;
+  ros::Publisher scan_pub_, cliff_pub_;
   ros::Subscriber imu_sub_, pitch_sub_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
