@@ -113,6 +113,9 @@ Config config(FuzzedDataProvider& in)
   k.min_intensity = number(in, 0.0, 1.0);
   k.intensity_filter = in.ConsumeBool();
   k.num_threads = integer(in, 0, 3);
+  k.cliff_scan = in.ConsumeBool();
+  k.cliff_in_scan = in.ConsumeBool();
+  k.cliff_min_pixels = integer(in, 0, 5);
   return k;
 }
 
@@ -179,6 +182,10 @@ void checkResult(const FrameResult& r, const cv::Mat& depth, const Pipeline& p)
   for (float v : r.scan.ranges)
     check(std::isnan(v) || std::isinf(v) || (v >= r.scan.range_min && v <= r.scan.range_max),
           "finite ranges within [range_min, range_max]");
+  if (p.config().cliff_scan)
+    check(r.cliff.ranges.size() == r.scan.ranges.size(), "the cliff scan has the beams of the scan");
+  else
+    check(r.cliff.ranges.empty(), "no cliff scan when cliff_scan is off");
 }
 
 SensorPose pose(FuzzedDataProvider& in)
