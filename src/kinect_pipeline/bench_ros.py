@@ -30,6 +30,7 @@ class Measurement:
     rss_start_mb: float = float("nan")
     rss_end_mb: float = float("nan")
     rss_trace_mb: list[float] | None = None  # one value a minute while frames flow
+    node_counters: dict[str, int] | None = None  # the node's own drop / fallback counters (/diagnostics) at the end
 
     def row(self, relay: Measurement | None) -> str:
         med, p99 = np.median(self.latencies_ms), np.percentile(self.latencies_ms, 99)
@@ -40,6 +41,9 @@ class Measurement:
             f"| {self.name} | {self.sent} | {self.received} | {self.sent - self.received} | {med:.3f} | {p99:.3f} "
             f"| {added or '–'} | {self.cpu_percent:.1f} |"
         )
+
+
+_NODE_COUNTERS = ("frames in", "frames out", "pose fallbacks")
 
 
 def _free_port() -> int:
@@ -112,6 +116,7 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
     try:
         import rosgraph
         import rospy
+        from diagnostic_msgs.msg import DiagnosticArray
         from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
         deadline = time.monotonic() + 30
@@ -183,6 +188,16 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
                     lat.append((now - m.header.stamp).to_sec() * 1e3)
 
             sub = rospy.Subscriber(topic, msg_type, on_msg, queue_size=100, tcp_nodelay=True)
+            counters: dict[str, int] = {}
+
+            def on_diag(m: Any, counters: dict[str, int] = counters, lock: threading.Lock = lock) -> None:
+                with lock:
+                    for st in m.status:
+                        for kv in st.values:
+                            if kv.key.startswith("dropped: ") or kv.key in _NODE_COUNTERS:
+                                counters[kv.key] = int(kv.value)
+
+            diag_sub = rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=10)
             proc = subprocess.Popen(
                 cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
             )
@@ -227,9 +242,12 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | Non
                 cpu = (_cpu_seconds(pids) - cpu0) / (time.monotonic() - t0) * 100.0
                 rss1 = _rss_mb(pids)
                 with lock:
-                    results.append(Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1, [*trace, rss1]))
+                    m = Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1, [*trace, rss1])
+                    m.node_counters = dict(counters) if counters else None
+                    results.append(m)
             finally:
                 sub.unregister()
+                diag_sub.unregister()
                 _stop(proc)
     finally:
         _stop(core)
@@ -261,4 +279,9 @@ def soak_report(results: list[Measurement]) -> str:
     for r in results:
         if r.rss_trace_mb:
             lines.append(f"\n{r.name}: RSS each minute [MB]: " + " ".join(f"{v:.1f}" for v in r.rss_trace_mb))
+        if r.node_counters:
+            lines.append(
+                f"\n{r.name}: its diagnostics at the end (frames of the warm-up included): "
+                + ", ".join(f"{k} {v}" for k, v in sorted(r.node_counters.items()) if v or not k.startswith("dropped"))
+            )
     return "\n".join(lines)
