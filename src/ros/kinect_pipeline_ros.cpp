@@ -108,7 +108,6 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   // roscpp does not register again with a restarted master: this does, for the whole process.
   const std::string me = ros::this_node::getName();
   master_ = std::make_unique<MasterReconnect>(
-      nh_,
       std::vector<std::string>{pnh_.resolveName("set_parameters"), me + "/get_loggers", me + "/set_logger_level",
                                me + "/load_nodelet", me + "/unload_nodelet", me + "/list"},
       [this] { republishParameters(); });

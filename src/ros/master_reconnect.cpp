@@ -1,5 +1,6 @@
 #include "kinect_pipeline/ros/master_reconnect.h"
 
+#include <chrono>
 #include <utility>
 
 #include <ros/connection_manager.h>
@@ -42,11 +43,30 @@ bool topicList(const std::string& method, XmlRpc::XmlRpcValue& list)
 }
 }  // namespace
 
-MasterReconnect::MasterReconnect(ros::NodeHandle nh, std::vector<std::string> services,
-                                 std::function<void()> on_reconnect, double period)
-  : nh_(nh), services_(std::move(services)), on_reconnect_(std::move(on_reconnect))
+MasterReconnect::MasterReconnect(std::vector<std::string> services, std::function<void()> on_reconnect, double period)
+  : services_(std::move(services)), on_reconnect_(std::move(on_reconnect))
 {
-  timer_ = nh_.createWallTimer(ros::WallDuration(period), [this](const ros::WallTimerEvent&) { check(); });
+  const auto wait = std::chrono::duration<double>(period);
+  thread_ = std::thread([this, wait] {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!wake_.wait_for(lock, wait, [this] { return stop_; }))
+    {
+      lock.unlock();
+      if (ros::ok())
+        check();
+      lock.lock();
+    }
+  });
+}
+
+MasterReconnect::~MasterReconnect()
+{
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  thread_.join();
 }
 
 void MasterReconnect::check()
