@@ -442,11 +442,11 @@ void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
  */
 void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
 {
-  // floor() for positions > -1024, clamped to the padding slots -1 and beams: vectorises, no branches.
+  // floor() for positions > -1024, clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches.
   for (int u = a; u <= b; ++u)
   {
     float f = fc[u];
-    f = f < -1.0f ? -1.0f : (f > beams ? beams : f);
+    f = !(f >= -1.0f) ? -1.0f : (f > beams ? beams : f);  // NaN goes to the padding slot too
     key[u] = static_cast<std::int32_t>(f + 1024.0f) - 1024;
   }
 }
