@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -33,22 +32,19 @@ class CliffRow:
     flat_false_frames: float  # % of flat-floor frames with any cliff beam
 
 
-def _pipelines(cam: _core.Camera) -> dict[str, tuple[Any, bool]]:
-    cfg = _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, cliff_in_scan=True)
-    return {
-        "pitch compensated (default)": (lambda: _core.Pipeline(cam, cfg), True),
-        "static tilt (base pitch ignored)": (lambda: _core.Pipeline(cam, cfg), False),
-    }
+#: the compared pipelines: name -> is the base pitch given to it?
+PIPELINES = {"pitch compensated (default)": True, "static tilt (base pitch ignored)": False}
 
 
 def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 5, show_progress: bool = False) -> list[CliffRow]:
     """The table's rows: every pitch condition x {pitch compensated, static tilt} on the same frames."""
     cam = kinect_v2_camera()
     rows: list[CliffRow] = []
-    jobs = [(c, p) for c in CONDITIONS for p in _pipelines(cam)]
+    cfg = _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, cliff_in_scan=True)
+    jobs = [(c, p) for c in CONDITIONS for p in PIPELINES]
     for cond, name in progress(jobs, len(jobs), "cliff") if show_progress else jobs:
-        make, give_pitch = _pipelines(cam)[name]
-        stair_pipe, flat_pipe = make(), make()
+        give_pitch = PIPELINES[name]
+        stair_pipe, flat_pipe = _core.Pipeline(cam, cfg), _core.Pipeline(cam, cfg)
         found, errors, stops, false_beams, false_frames = [], [], [], [], []
         for i in range(frames):
             bp = CONDITIONS[cond](i)
