@@ -2,7 +2,7 @@
 // 1 and 2 threads, next to a memcpy of the same frame measured in the same run, and their ratio.
 // Also counts heap allocations per frame in steady state (global operator new is counted here).
 //
-//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--markdown]
+//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,...] [--markdown]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -63,6 +63,7 @@ int main(int argc, char** argv)
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
   bool markdown = false;
+  std::vector<int> types = {CV_8UC1, CV_16UC1, CV_32FC1};
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -72,6 +73,28 @@ int main(int argc, char** argv)
       kernel = std::atoi(argv[++i]);
     else if (a == "--projection" && i + 1 < argc)
       projection = argv[++i];
+    else if (a == "--encodings" && i + 1 < argc)
+    {
+      // A comma-separated subset of 8UC1,16UC1,32FC1 (profiling one encoding).
+      types.clear();
+      for (std::string t = argv[++i]; !t.empty();)
+      {
+        const std::size_t comma = t.find(',');
+        const std::string e = t.substr(0, comma);
+        if (e == "8UC1")
+          types.push_back(CV_8UC1);
+        else if (e == "16UC1")
+          types.push_back(CV_16UC1);
+        else if (e == "32FC1")
+          types.push_back(CV_32FC1);
+        else
+        {
+          std::fprintf(stderr, "--encodings: '%s' is not one of 8UC1, 16UC1, 32FC1\n", e.c_str());
+          return 2;
+        }
+        t = comma == std::string::npos ? "" : t.substr(comma + 1);
+      }
+    }
     else if (a == "--markdown")
       markdown = true;
     else if (a == "--threads" && i + 1 < argc)
@@ -93,7 +116,7 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -113,7 +136,7 @@ int main(int argc, char** argv)
     double allocs;
   };
   std::vector<Row> rows;
-  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+  for (const int type : types)
   {
     const cv::Mat frame = encodeDepth(metres, type, 12.0);
     cv::Mat copy(frame.size(), frame.type());

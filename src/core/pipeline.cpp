@@ -105,46 +105,78 @@ RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const 
  * a hole the opening leaves an obstacle pixel, which errs on the safe side.)
  * @param in the input row (unmapped), @param src the opened row
  */
+// One pixel of rescueByRaw (below): @return true if it relabelled the pixel.
+template <typename T>
+inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lut, const float* col, float rise_row,
+                        float scale, float floor_h, float ceil_h, std::uint8_t* lab, T* dst, RowCounts& c)
+{
+  using Tr = DepthTraits<T>;
+  if (lab[u] != kKept && lab[u] != kBelowFloor)
+    return false;
+  const T raw = Tr::map(in[u]);
+  if (raw == src[u] || Tr::isNoReturn(raw))
+    return false;
+  const float d = static_cast<float>(raw) * scale;
+  float t;
+  if constexpr (std::is_same_v<T, std::uint8_t>)
+    t = lut.forValue(raw);
+  else
+    t = lut.forDepth(d);
+  // Only where the opening moved the pixel by more than the noise band: not the noise of a low obstacle.
+  if (!(d - static_cast<float>(src[u]) * scale > t))
+    return false;
+  const float rise = col[u] + rise_row;
+  const float e = d * rise;
+  const float above = e + floor_h;
+  std::uint8_t label;
+  if (e > ceil_h)
+    label = kAboveCeiling;
+  else if (rise < 0.0f && above < -t * rise && above > t * rise)
+    label = kFloor;
+  else
+    return false;
+  if (lab[u] == kKept)
+    --c.kept;
+  if (label == kFloor)
+    ++c.floor;
+  else
+    ++c.ceiling;
+  lab[u] = label;
+  dst[u] = Tr::removed();
+  return true;
+}
+
+/**
+ * The opening can only move a depth nearer (a max of mins). Where it moved a pixel by more than t(d) and the raw
+ * depth shows it on the floor or beyond the ceiling plane (at the corner of an object, or far down the floor where
+ * a row spans metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not an obstacle.
+ * (Not "below the floor": beyond an object's silhouette that would turn noisy far floor into cliffs; at the rim of
+ * a hole the opening leaves an obstacle pixel, which errs on the safe side.)
+ * @param in the input row (unmapped), @param src the opened row
+ */
 template <typename T>
 void rescueByRaw(const T* __restrict in, const T* __restrict src, const ThresholdLut& lut, const float* col,
                  float rise_row, float scale, float floor_h, float ceil_h, int w, std::uint8_t* lab, T* dst,
                  RowCounts& c)
 {
-  using Tr = DepthTraits<T>;
   for (int u = 0; u < w; ++u)
+    rescuePixel<T>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
+}
+
+// rescueByRaw on the pixels flagged in cand only (a superset of those it relabels), 8 flags at a time.
+void rescueCandidates(const std::uint8_t* cand, const std::uint8_t* in, const std::uint8_t* src,
+                      const ThresholdLut& lut, const float* col, float rise_row, float scale, float floor_h,
+                      float ceil_h, int w, std::uint8_t* lab, std::uint8_t* dst, RowCounts& c)
+{
+  for (int u0 = 0; u0 < w; u0 += 8)
   {
-    if (lab[u] != kKept && lab[u] != kBelowFloor)
+    std::uint64_t x = 0;
+    std::memcpy(&x, cand + u0, static_cast<std::size_t>(std::min(8, w - u0)));
+    if (x == 0)
       continue;
-    const T raw = Tr::map(in[u]);
-    if (raw == src[u] || Tr::isNoReturn(raw))
-      continue;
-    const float d = static_cast<float>(raw) * scale;
-    float t;
-    if constexpr (std::is_same_v<T, std::uint8_t>)
-      t = lut.forValue(raw);
-    else
-      t = lut.forDepth(d);
-    // Only where the opening moved the pixel by more than the noise band: not the noise of a low obstacle.
-    if (!(d - static_cast<float>(src[u]) * scale > t))
-      continue;
-    const float rise = col[u] + rise_row;
-    const float e = d * rise;
-    const float above = e + floor_h;
-    std::uint8_t label;
-    if (e > ceil_h)
-      label = kAboveCeiling;
-    else if (rise < 0.0f && above < -t * rise && above > t * rise)
-      label = kFloor;
-    else
-      continue;
-    if (lab[u] == kKept)
-      --c.kept;
-    if (label == kFloor)
-      ++c.floor;
-    else
-      ++c.ceiling;
-    lab[u] = label;
-    dst[u] = Tr::removed();
+    for (int u = u0; u < std::min(w, u0 + 8); ++u)
+      if (cand[u])
+        rescuePixel<std::uint8_t>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
   }
 }
 
@@ -342,26 +374,50 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
 
 // Labels, cleaned depth and counts of an 8-bit row from its value thresholds. Arithmetic on bytes only, with
 // byte counters per block of 240 pixels, so that it vectorises 16 pixels wide.
+// With in (the raw row), also flags in cand the pixels rescueByRaw may relabel: kept or below floor, moved nearer
+// by the opening, and whose raw value has the label floor or above ceiling (values rt1 <= v < rt2).
 RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
-                   std::uint8_t* __restrict dst)
+                   std::uint8_t* __restrict dst, const std::uint8_t* __restrict in, std::uint8_t* __restrict cand)
 {
   const std::uint8_t t1 = static_cast<std::uint8_t>(s.t1), t2 = static_cast<std::uint8_t>(s.t2), l1 = s.l1, l2 = s.l2;
   // 255 is >= t1 and >= t2: its l1 + l2 becomes kInvalid.
   const std::uint8_t fix = static_cast<std::uint8_t>(l1 + l2 - kInvalid);
+  const bool rescuable = s.t1 < 255 && (s.l1 == kFloor || s.l1 == kAboveCeiling);
+  const std::uint8_t rt1 = rescuable ? t1 : 255, rt2 = t2;
   int n1 = 0, n2 = 0, ni = 0;
   for (int u0 = 0; u0 < w; u0 += 240)
   {
     const int u1 = std::min(w, u0 + 240);
     std::uint8_t c1 = 0, c2 = 0, ci = 0;
-    for (int u = u0; u < u1; ++u)
+    if (in)
     {
-      const std::uint8_t v = src[u];
-      const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
-      lab[u] = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
-      dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
-      c1 += g1;
-      c2 += g2;
-      ci += inv;
+      for (int u = u0; u < u1; ++u)
+      {
+        const std::uint8_t v = src[u];
+        const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
+        const std::uint8_t l = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
+        lab[u] = l;
+        dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
+        c1 += g1;
+        c2 += g2;
+        ci += inv;
+        const std::uint8_t raw = in[u] < DepthTraits<std::uint8_t>::kMinValid ? 255 : in[u];
+        cand[u] = static_cast<std::uint8_t>(((l == kKept) | (l == kBelowFloor)) & (raw > v) & (raw >= rt1) &
+                                            (raw < rt2));
+      }
+    }
+    else
+    {
+      for (int u = u0; u < u1; ++u)
+      {
+        const std::uint8_t v = src[u];
+        const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
+        lab[u] = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
+        dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
+        c1 += g1;
+        c2 += g2;
+        ci += inv;
+      }
     }
     n1 += c1;
     n2 += c2;
@@ -510,6 +566,7 @@ struct Pipeline::Scratch
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
+  std::vector<std::uint8_t> cand;        // pixels of an 8-bit row the rescue may relabel
   ValueSplit guess;                      // the last row's value thresholds
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
   std::array<std::uint64_t, kNumLabels> counts{};
@@ -572,6 +629,7 @@ void Pipeline::prepareBuffers(int threads)
     s.cliff_count.resize(beams + 2);
     s.vlab.resize(256);
     s.vdst.resize(256);
+    s.cand.resize(w + 8);
   }
   spans_.resize(2 * static_cast<std::size_t>(camera_.height));
 }
@@ -802,11 +860,18 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         {
           int lo, hi;
           valueRange(src, w, lo, hi);
+          // The rescue below looks at raw values, which may lie above the opened row's: split up to 254.
+          if (rad > 0 && lo <= hi)
+            hi = 254;
           ValueSplit split;
           const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues(label, proof, lo, hi, s.guess, s.vlab.data(), s.vdst.data(), split))
           {
-            c = splitRow(src, w, split, lab, dst);
+            std::uint8_t* cand = s.cand.data();
+            c = splitRow(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
+            if (rad > 0)
+              rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
+                               dst, c);
             done = true;
           }
         }
@@ -815,9 +880,10 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       {
         thresholdRow<T>(src, lut, scale, w, s.t.data());
         c = classifyRow<T>(src, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst);
+        if (rad > 0)
+          rescueByRaw<T>(depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, c);
       }
-      if (rad > 0)
-        rescueByRaw<T>(depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, c);
+
       s.counts[kKept] += c.kept;
       s.counts[kInvalid] += c.invalid;
       s.counts[kFloor] += c.floor;
