@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "kinect_pipeline/encoding.h"
+#include "simd.h"
 
 namespace kinect_pipeline
 {
@@ -27,7 +28,7 @@ inline T pick(T a, T b)
 // Horizontal pass: the window is clamped at the image edges, which for min/max equals OpenCV's default
 // border (a value that never wins).
 template <typename T, bool kMin>
-void horizontal(const T* tmp, int w, int rad, T* dst)
+KP_CLONES void horizontal(const T* tmp, int w, int rad, T* dst)
 {
   if (rad == 1 && w >= 3)
   {
@@ -49,7 +50,7 @@ void horizontal(const T* tmp, int w, int rad, T* dst)
 }  // namespace
 
 template <typename T, bool kMin>
-void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   const int w = src.cols;
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
@@ -65,7 +66,7 @@ void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 }
 
 template <typename T>
-void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   using Tr = DepthTraits<T>;
   const int w = src.cols;

@@ -14,6 +14,7 @@
 #endif
 
 #include "kinect_pipeline/morphology.h"
+#include "simd.h"
 
 namespace kinect_pipeline
 {
@@ -66,7 +67,7 @@ struct RowCounts
  * @param rise_row the row's term of the rise per metre of depth (col[u] + rise_row < 0: the ray goes down)
  */
 template <typename T>
-RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const float* __restrict col, float rise_row,
+KP_CLONES RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const float* __restrict col, float rise_row,
                       float scale, float floor_h, float ceil_h, int w, std::uint8_t* __restrict lab, T* __restrict dst)
 {
   using Tr = DepthTraits<T>;
@@ -181,7 +182,7 @@ void rescueCandidates(const std::uint8_t* cand, const std::uint8_t* in, const st
 }
 
 template <typename T>
-void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
+KP_CLONES void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
 {
   // A gather, which SSE cannot vectorise: kept out of classifyRow.
   for (int u = 0; u < w; ++u)
@@ -205,7 +206,7 @@ struct ValueSplit
 };
 
 // Smallest and largest value other than 255 of an 8-bit row (lo > hi if there is none).
-void valueRange(const std::uint8_t* __restrict src, int w, int& lo, int& hi)
+KP_CLONES void valueRange(const std::uint8_t* __restrict src, int w, int& lo, int& hi)
 {
   std::uint8_t mn = 255, mx = 0;
   for (int u = 0; u < w; ++u)
@@ -376,7 +377,7 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
 // byte counters per block of 240 pixels, so that it vectorises 16 pixels wide.
 // With in (the raw row), also flags in cand the pixels rescueByRaw may relabel: kept or below floor, moved nearer
 // by the opening, and whose raw value has the label floor or above ceiling (values rt1 <= v < rt2).
-RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
+KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
                    std::uint8_t* __restrict dst, const std::uint8_t* __restrict in, std::uint8_t* __restrict cand)
 {
   const std::uint8_t t1 = static_cast<std::uint8_t>(s.t1), t2 = static_cast<std::uint8_t>(s.t2), l1 = s.l1, l2 = s.l2;
@@ -468,7 +469,7 @@ int lastKept(const std::uint8_t* lab, int w)
 
 // z[u] = depth of the kept pixel u of the cleaned row, +Inf for removed ones, for u in [u0, u1].
 template <typename T>
-void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
+KP_CLONES void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
 {
   const T removed = DepthTraits<T>::removed();
   for (int u = u0; u <= u1; ++u)
@@ -483,7 +484,7 @@ void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __re
   }
 }
 
-void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
+KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
 {
   for (int u = u0; u <= u1; ++u)
     m[u] = z[u] < m[u] ? z[u] : m[u];
@@ -496,7 +497,7 @@ void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
  * that a surface covers. Pixels whose neighbour lies half a turn away (straddling the direction behind) are not
  * used to fill. With kCount, counts[k] also counts the finite ranges that went into bin k.
  */
-void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
+KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
 {
   // floor() for positions > -1024, clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches.
   for (int u = a; u <= b; ++u)

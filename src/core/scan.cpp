@@ -1,5 +1,7 @@
 #include "kinect_pipeline/scan.h"
 
+#include "simd.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -84,14 +86,14 @@ const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
 namespace
 {
 // Restrict parameters of a small function: the loops vectorise without a runtime alias check.
-void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
+KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
                  float inv, float* __restrict out)
 {
   for (int e = e0; e <= e1; ++e)
     out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
 }
 
-void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
                const float* __restrict z, float* __restrict out)
 {
   for (int u = u0; u <= u1; ++u)
@@ -101,7 +103,7 @@ void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, f
   }
 }
 
-void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restrict z, float* __restrict out)
+KP_CLONES void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restrict z, float* __restrict out)
 {
   for (int u = u0; u <= u1; ++u)
     out[u] = z[u] * k[u];

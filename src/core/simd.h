@@ -1,0 +1,15 @@
+// Private to the core: runtime dispatch of the per-pixel loops to the widest vector unit the CPU has.
+//
+// KP_CLONES compiles a function three times (AVX-512 as in x86-64-v4, AVX2, the baseline) and picks one when the
+// library is loaded (GCC's target_clones, an ifunc). The core is built with -ffp-contract=off, so that no clone
+// fuses a multiply and an add: every clone gives bit-identical results, on every CPU.
+// Off for sanitizer builds (an ifunc resolver runs before the sanitizer runtime is up), for other compilers and
+// other architectures, and with -DKP_NO_CLONES.
+#pragma once
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__) && !defined(KP_NO_CLONES)
+#define KP_CLONES __attribute__((target_clones("arch=x86-64-v4", "avx2", "default")))
+#else
+#define KP_CLONES
+#endif
