@@ -510,9 +510,16 @@ KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams,
 
 template <bool kCount>
 void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins, float* bins,
-                std::int32_t* key, std::int32_t* counts)
+                std::int32_t* key, std::int32_t* gaps, std::int32_t* counts)
 {
   binIndices(fc, a, b, static_cast<float>(beams), key);
+  // Pairs of neighbours whose centres are more than a bin apart, listed without a branch (they come irregularly).
+  int n = 0;
+  for (int u = a; u < b; ++u)
+  {
+    gaps[n] = u;
+    n += static_cast<unsigned>(key[u + 1] - key[u] + 1) > 2u;
+  }
   for (int u = a; u <= b; ++u)
   {
     const float r = range[u];
@@ -520,11 +527,11 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
     slot = r < slot ? r : slot;
     if constexpr (kCount)
       counts[key[u]] += r < kInf;
-    if (u == b)
-      break;
-    const int step = key[u + 1] - key[u];
-    if (step >= -1 && step <= 1)
-      continue;
+  }
+  for (int i = 0; i < n; ++i)
+  {
+    const int u = gaps[i];
+    const float r = range[u];
     // A gap of whole bins between neighbouring centres: split it at the middle (rare: pixels wider than beams).
     const float f0 = fc[u], f1 = fc[u + 1];
     const float r1 = range[u + 1];
@@ -564,6 +571,7 @@ struct Pipeline::Scratch
   std::vector<float> edges;      // bin positions of the row's pixel centres
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
+  std::vector<std::int32_t> gaps;  // pixels of the row whose next neighbour's centre is more than a bin away
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
@@ -626,6 +634,7 @@ void Pipeline::prepareBuffers(int threads)
     s.edges.resize(w + 1);
     s.bins.resize(beams + 2);  // from beam -1 to beams: what lies outside the scan goes to the ends
     s.key.resize(w);
+    s.gaps.resize(w);
     s.cliff_bins.resize(beams + 2);
     s.cliff_count.resize(beams + 2);
     s.vlab.resize(256);
@@ -905,7 +914,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         projector_.centreBins(r, a1, b1, fb);
         projector_.spanRanges(r, a1, b1, z, range);
         binCentres<true>(fb, range, a1, b1, beams, half_turn_bins, s.cliff_bins.data() + 1, s.key.data(),
-                         s.cliff_count.data() + 1);
+                         s.gaps.data(), s.cliff_count.data() + 1);
       }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
@@ -930,7 +939,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
       projector_.centreBins(0, 0, w - 1, fb);
       projector_.spanRanges(0, 0, w - 1, s.colmin.data(), range);
-      binCentres<false>(fb, range, 0, w - 1, beams, half_turn_bins, bins, s.key.data(), nullptr);
+      binCentres<false>(fb, range, 0, w - 1, beams, half_turn_bins, bins, s.key.data(), s.gaps.data(), nullptr);
     }
     else
     {
@@ -949,7 +958,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           z[u] = kInf;
         projector_.centreBins(r, a1, b1, fb);
         projector_.spanRanges(r, a1, b1, z, range);
-        binCentres<false>(fb, range, a1, b1, beams, half_turn_bins, bins, s.key.data(), nullptr);
+        binCentres<false>(fb, range, a1, b1, beams, half_turn_bins, bins, s.key.data(), s.gaps.data(), nullptr);
       }
     }
   }
