@@ -374,7 +374,7 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
 }
 
 // Labels, cleaned depth and counts of an 8-bit row from its value thresholds. Arithmetic on bytes only, with
-// byte counters per block of 240 pixels, so that it vectorises 16 pixels wide.
+// byte counters per block of 128 pixels (a multiple of every vector width), so that it vectorises without a scalar tail.
 // With in (the raw row), also flags in cand the pixels rescueByRaw may relabel: kept or below floor, moved nearer
 // by the opening, and whose raw value has the label floor or above ceiling (values rt1 <= v < rt2).
 KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
@@ -386,9 +386,9 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
   const bool rescuable = s.t1 < 255 && (s.l1 == kFloor || s.l1 == kAboveCeiling);
   const std::uint8_t rt1 = rescuable ? t1 : 255, rt2 = t2;
   int n1 = 0, n2 = 0, ni = 0;
-  for (int u0 = 0; u0 < w; u0 += 240)
+  for (int u0 = 0; u0 < w; u0 += 128)
   {
-    const int u1 = std::min(w, u0 + 240);
+    const int u1 = std::min(w, u0 + 128);
     std::uint8_t c1 = 0, c2 = 0, ci = 0;
     if (in)
     {
