@@ -89,6 +89,10 @@ struct Config
   double range_max = 10.0;  ///< longer ranges are reported as +Inf (no return) [m]
   int scan_beams = 0;       ///< number of beams; 0 = the image width
   double scan_fov = 0.0;    ///< angular width of the scan [rad], centred on forward; 0 = the camera's
+  /// Range of a beam: 0 = its nearest kept pixel (the thesis); > 0 = the mean of the measured (unopened) ranges
+  /// of its kept pixels no farther than surface_band * t(r) beyond the nearest one, r being that nearest range:
+  /// the nearest surface's range, not the noise's nearest tail (a second pass over the kept pixels). [-], 0..10
+  double surface_band = 0.0;
 
   /// Negative obstacles (pixels more than t(d) below the floor: a hole, a stair down, a dock edge).
   bool cliff_scan = true;      ///< fill FrameResult::cliff: nearest below-floor pixel per beam

@@ -120,6 +120,8 @@ private:
   struct Scratch;
   template <typename T>
   void run(const cv::Mat& depth, FrameResult& out);
+  template <typename T>
+  void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
   void prepareBuffers(int threads);
 
   Camera camera_;
@@ -133,6 +135,7 @@ private:
   cv::Mat eroded_, mapped_, opened_;
   std::vector<std::int32_t> spans_;  ///< first and last kept column of each row (first > last: none)
   std::vector<std::int32_t> cliff_count_;  ///< below-floor pixels per beam of the frame
+  std::vector<float> band_limit_;          ///< surface_band: farthest range counted per beam (+ padding) [m]
   std::vector<std::unique_ptr<Scratch>> scratch_;
 };
 

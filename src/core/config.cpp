@@ -166,6 +166,7 @@ void Config::validate() const
     fail(s.str());
   }
   requireRange("scan_fov", scan_fov, 0.0, 2.0 * 3.14159265358979323846, "rad (0 = the camera's)");
+  requireRange("surface_band", surface_band, 0.0, 10.0, "(a multiple of the threshold curve t(d); 0 = nearest pixel)");
   if (cliff_min_pixels < 1 || cliff_min_pixels > 100000)
   {
     std::ostringstream s;

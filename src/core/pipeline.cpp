@@ -484,6 +484,19 @@ KP_CLONES void keptDepth(const T* __restrict dst, int u0, int u1, float scale, f
   }
 }
 
+// z[u] = measured (raw) depth of the pixel u labelled kept, +Inf for the others and for no return, u in [u0, u1].
+template <typename T>
+KP_CLONES void keptRawDepth(const T* __restrict in, const std::uint8_t* __restrict lab, int u0, int u1, float scale,
+                            float* __restrict z)
+{
+  using Tr = DepthTraits<T>;
+  for (int u = u0; u <= u1; ++u)
+  {
+    const T v = Tr::map(in[u]);
+    z[u] = (lab[u] == kKept && !Tr::isNoReturn(v)) ? static_cast<float>(v) * scale : kInf;
+  }
+}
+
 KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
 {
   for (int u = u0; u <= u1; ++u)
@@ -508,9 +521,38 @@ KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams,
   }
 }
 
-template <bool kCount>
-void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins, float* bins,
-                std::int32_t* key, std::int32_t* gaps, std::int32_t* counts)
+// What binCentres does with a range v that goes into bin k (k may be a padding slot, -1 or beams).
+struct MinInto  // the nearest range per bin
+{
+  float* bins;
+  void operator()(int k, float v) const { bins[k] = v < bins[k] ? v : bins[k]; }
+};
+struct MinCountInto  // the nearest range per bin, and how many finite ranges went in
+{
+  float* bins;
+  std::int32_t* counts;
+  void operator()(int k, float v) const
+  {
+    bins[k] = v < bins[k] ? v : bins[k];
+    counts[k] += v < kInf;
+  }
+};
+struct BandSum  // sum [um] and number of the ranges no farther than limit[k] (exact integers: any order, any team)
+{
+  const float* limit;
+  std::int64_t* sum;
+  std::int32_t* n;
+  void operator()(int k, float v) const
+  {
+    const bool in = v <= limit[k];
+    sum[k] += static_cast<std::int64_t>(static_cast<double>(in ? v : 0.0f) * 1e6 + 0.5);
+    n[k] += in;
+  }
+};
+
+template <typename Acc>
+void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins,
+                std::int32_t* key, std::int32_t* gaps, const Acc& acc)
 {
   binIndices(fc, a, b, static_cast<float>(beams), key);
   // Pairs of neighbours whose centres are more than a bin apart, listed without a branch (they come irregularly).
@@ -521,13 +563,7 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
     n += static_cast<unsigned>(key[u + 1] - key[u] + 1) > 2u;
   }
   for (int u = a; u <= b; ++u)
-  {
-    const float r = range[u];
-    float& slot = bins[key[u]];  // bins[-1] and bins[beams] take what lies outside the scan
-    slot = r < slot ? r : slot;
-    if constexpr (kCount)
-      counts[key[u]] += r < kInf;
-  }
+    acc(key[u], range[u]);  // bins[-1] and bins[beams] take what lies outside the scan
   for (int i = 0; i < n; ++i)
   {
     const int u = gaps[i];
@@ -543,12 +579,7 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
     const float mid = 0.5f * (lo + hi);
     const float r_lo = f0 < f1 ? r : r1, r_hi = f0 < f1 ? r1 : r;
     for (int k = k0; k <= k1; ++k)
-    {
-      const float v = (k + 0.5f) < mid ? r_lo : r_hi;
-      bins[k] = v < bins[k] ? v : bins[k];
-      if constexpr (kCount)
-        counts[k] += v < kInf;
-    }
+      acc(k, (k + 0.5f) < mid ? r_lo : r_hi);
   }
 }
 
@@ -574,6 +605,8 @@ struct Pipeline::Scratch
   std::vector<std::int32_t> gaps;  // pixels of the row whose next neighbour's centre is more than a bin away
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
+  std::vector<std::int64_t> band_sum;     // surface_band: ranges within the band per beam [um] (+ padding)
+  std::vector<std::int32_t> band_n;       // surface_band: their number per beam (+ padding)
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
   std::vector<std::uint8_t> cand;        // pixels of an 8-bit row the rescue may relabel
   ValueSplit guess;                      // the last row's value thresholds
@@ -637,6 +670,8 @@ void Pipeline::prepareBuffers(int threads)
     s.gaps.resize(w);
     s.cliff_bins.resize(beams + 2);
     s.cliff_count.resize(beams + 2);
+    s.band_sum.resize(beams + 2);
+    s.band_n.resize(beams + 2);
     s.vlab.resize(256);
     s.vdst.resize(256);
     s.cand.resize(w + 8);
@@ -716,6 +751,75 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
       break;
   }
   out.times.total = msSince(t0);
+}
+
+/**
+ * surface_band > 0: each beam's range becomes the mean of its ranges no farther than surface_band * t(m) beyond its
+ * nearest m (out.scan.ranges on entry). A second pass over the kept spans, binned exactly as the first, at the
+ * measured depth of the kept pixels: the opening's max of mins is biased towards the sensor on noise (by about
+ * one sigma), the raw depth is not. (Raw >= opened, so no raw range lies below m.)
+ */
+template <typename T>
+void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
+{
+  const int w = camera_.width, h = camera_.height, beams = projector_.beams();
+  std::vector<float>& ranges = out.scan.ranges;
+  band_limit_.assign(beams + 2, -1.0f);  // padding slots: nothing is ever within
+  for (int k = 0; k < beams; ++k)
+  {
+    const float m = ranges[k];
+    if (m < kInf)
+      band_limit_[k + 1] = static_cast<float>(m + config_.surface_band * evaluateCurve(config_.threshold_curve, m));
+  }
+  const float scale = depthScale<T>(config_.max_depth);
+  const float half_turn_bins = 3.14159265f / projector_.angleIncrement();
+  const bool column = projector_.projection() == Projection::kColumn;
+  int team = 1;
+#pragma omp parallel num_threads(threads)
+  {
+    Scratch& s = *scratch_[threadId()];
+#ifdef _OPENMP
+#pragma omp single nowait
+    team = omp_get_num_threads();
+#endif
+    std::fill(s.band_sum.begin(), s.band_sum.end(), 0);
+    std::fill(s.band_n.begin(), s.band_n.end(), 0);
+    const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
+    float* z = s.z.data();
+    float* range = s.range.data();
+    float* fb = s.edges.data();
+    if (column)
+      projector_.centreBins(0, 0, w - 1, fb);  // the same for every row
+#pragma omp for schedule(dynamic, 8)
+    for (int r = 0; r < h; ++r)
+    {
+      const int a = spans_[2 * r], b = spans_[2 * r + 1];
+      if (a > b)
+        continue;
+      keptRawDepth<T>(depth.ptr<T>(r), out.labels.ptr<std::uint8_t>(r), a, b, scale, z);
+      const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
+      for (int u = a1; u < a; ++u)
+        z[u] = kInf;
+      for (int u = b + 1; u <= b1; ++u)
+        z[u] = kInf;
+      if (!column)
+        projector_.centreBins(r, a1, b1, fb);
+      projector_.spanRanges(r, a1, b1, z, range);
+      binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(), acc);
+    }
+  }
+  for (int k = 0; k < beams; ++k)
+  {
+    std::int64_t sum = 0;
+    std::int64_t n = 0;
+    for (int i = 0; i < team; ++i)
+    {
+      sum += scratch_[i]->band_sum[k + 1];
+      n += scratch_[i]->band_n[k + 1];
+    }
+    if (n > 0)  // always, where the beam has a finite nearest range: that pixel is within the band
+      ranges[k] = static_cast<float>(static_cast<double>(sum) / static_cast<double>(n) * 1e-6);
+  }
 }
 
 template <typename T>
@@ -913,8 +1017,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
         projector_.centreBins(r, a1, b1, fb);
         projector_.spanRanges(r, a1, b1, z, range);
-        binCentres<true>(fb, range, a1, b1, beams, half_turn_bins, s.cliff_bins.data() + 1, s.key.data(),
-                         s.gaps.data(), s.cliff_count.data() + 1);
+        binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(),
+                   MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
@@ -939,7 +1043,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
       projector_.centreBins(0, 0, w - 1, fb);
       projector_.spanRanges(0, 0, w - 1, s.colmin.data(), range);
-      binCentres<false>(fb, range, 0, w - 1, beams, half_turn_bins, bins, s.key.data(), s.gaps.data(), nullptr);
+      binCentres(fb, range, 0, w - 1, beams, half_turn_bins, s.key.data(), s.gaps.data(), MinInto{bins});
     }
     else
     {
@@ -958,7 +1062,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           z[u] = kInf;
         projector_.centreBins(r, a1, b1, fb);
         projector_.spanRanges(r, a1, b1, z, range);
-        binCentres<false>(fb, range, a1, b1, beams, half_turn_bins, bins, s.key.data(), s.gaps.data(), nullptr);
+        binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(), MinInto{bins});
       }
     }
   }
@@ -982,6 +1086,14 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       scan.ranges[b] = std::min(scan.ranges[b], s.bins[b + 1]);
     for (int k = 0; k < kNumLabels; ++k)
       out.counts[k] += s.counts[k];
+  }
+  if (config_.surface_band > 0.0)
+  {
+    const auto ts = Clock::now();
+    surfaceMeans<T>(depth, out, threads);
+    const double ms = msSince(ts);
+    out.times.classify_scan += ms;
+    t1 += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(ms));
   }
   float cov_lo, cov_hi;
   if (column)

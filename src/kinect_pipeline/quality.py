@@ -26,6 +26,7 @@ CONDITIONS: dict[str, Callable[[int], float]] = {
 #: name -> (Config fields, base pitch given to the pipeline?)
 VARIANTS: dict[str, tuple[dict[str, Any] | None, bool]] = {
     "exact, horizontal (default)": ({}, True),
+    "exact, horizontal, surface_band 1": ({"surface_band": 1.0}, True),
     "exact, column": ({"projection": "column"}, True),
     "thesis, column": ({"geometry": "thesis", "projection": "column"}, True),
     "static tilt (base pitch ignored)": ({}, False),

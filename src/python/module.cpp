@@ -199,6 +199,7 @@ void setConfigField(Config& c, const std::string& key, const py::handle& v)
   else if (key == "intensity_filter") c.intensity_filter = py::cast<bool>(v);
   else if (key == "cliff_scan") c.cliff_scan = py::cast<bool>(v);
   else if (key == "cliff_in_scan") c.cliff_in_scan = py::cast<bool>(v);
+  else if (key == "surface_band") c.surface_band = py::cast<double>(v);
   else if (key == "cliff_min_pixels") c.cliff_min_pixels = py::cast<int>(v);
   else if (key == "num_threads") c.num_threads = py::cast<int>(v);
   else
@@ -208,7 +209,7 @@ void setConfigField(Config& c, const std::string& key, const py::handle& v)
 const char* kConfigFields[] = {"sensor_height", "sensor_pitch", "sensor_roll", "ceiling_height", "max_depth",
                                "geometry", "projection", "open_kernel_size", "open_kernel_shape",
                                "threshold_curve", "range_min", "range_max", "scan_beams", "scan_fov",
-                               "cliff_scan", "cliff_in_scan", "cliff_min_pixels", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
+                               "surface_band", "cliff_scan", "cliff_in_scan", "cliff_min_pixels", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
                                "num_threads"};
 
 }  // namespace
@@ -271,6 +272,7 @@ PYBIND11_MODULE(_core, m)
       .def_readwrite("scan_fov", &Config::scan_fov)
       .def_readwrite("cliff_scan", &Config::cliff_scan)
       .def_readwrite("cliff_in_scan", &Config::cliff_in_scan)
+      .def_readwrite("surface_band", &Config::surface_band)
       .def_readwrite("cliff_min_pixels", &Config::cliff_min_pixels)
       .def_readwrite("confidence_window", &Config::confidence_window)
       .def_readwrite("confidence_distance", &Config::confidence_distance)

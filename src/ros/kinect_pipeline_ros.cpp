@@ -61,6 +61,7 @@ NodeSettings settingsFromConfig(const KinectPipelineConfig& c)
   k.scan_fov = c.scan_fov;
   k.cliff_scan = c.cliff_scan;
   k.cliff_in_scan = c.cliff_in_scan;
+  k.surface_band = c.surface_band;
   k.cliff_min_pixels = c.cliff_min_pixels;
   k.confidence_window = c.confidence_window;
   k.confidence_distance = c.confidence_distance;

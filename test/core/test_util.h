@@ -55,30 +55,39 @@ inline double slowCurve(const std::vector<kinect_pipeline::CurvePoint>& c, doubl
   return c.back().threshold;
 }
 /**
- * Reference binning of one row: each finite range in the bin of its pixel centre's fractional bin position f[u];
- * bins between two neighbouring centres go to the nearer centre. counts (if given) counts the finite ranges.
+ * Reference binning of one row: put(k, v) for each finite range v in the bin k of its pixel centre's fractional
+ * bin position f[u]; bins between two neighbouring centres get the range of the nearer centre. Bins outside
+ * 0..beams-1 are dropped.
  */
-inline void binRow(const std::vector<double>& f, const std::vector<double>& rng, std::vector<double>& ranges,
-                   std::vector<int>* counts)
+template <typename Put>
+void binRowWith(const std::vector<double>& f, const std::vector<double>& rng, int beams, Put put)
 {
-  const int beams = static_cast<int>(ranges.size()), w = static_cast<int>(f.size());
-  auto put = [&](int k, double v) {
-    if (k < 0 || k >= beams || !std::isfinite(v))
-      return;
-    ranges[k] = std::min(ranges[k], v);
-    if (counts)
-      ++(*counts)[k];
+  const int w = static_cast<int>(f.size());
+  auto in = [&](int k, double v) {
+    if (k >= 0 && k < beams && std::isfinite(v))
+      put(k, v);
   };
   for (int u = 0; u < w; ++u)
   {
-    put(static_cast<int>(std::floor(f[u])), rng[u]);
+    in(static_cast<int>(std::floor(f[u])), rng[u]);
     if (u + 1 == w)
       break;
     const double lo_f = std::min(f[u], f[u + 1]), hi_f = std::max(f[u], f[u + 1]);
     const double r_lo = f[u] < f[u + 1] ? rng[u] : rng[u + 1], r_hi = f[u] < f[u + 1] ? rng[u + 1] : rng[u];
     for (int k = static_cast<int>(std::floor(lo_f)) + 1; k <= static_cast<int>(std::floor(hi_f)) - 1; ++k)
-      put(k, (k + 0.5) < 0.5 * (lo_f + hi_f) ? r_lo : r_hi);
+      in(k, (k + 0.5) < 0.5 * (lo_f + hi_f) ? r_lo : r_hi);
   }
+}
+
+/** binRowWith keeping the nearest range per bin; counts (if given) counts the finite ranges. */
+inline void binRow(const std::vector<double>& f, const std::vector<double>& rng, std::vector<double>& ranges,
+                   std::vector<int>* counts)
+{
+  binRowWith(f, rng, static_cast<int>(ranges.size()), [&](int k, double v) {
+    ranges[k] = std::min(ranges[k], v);
+    if (counts)
+      ++(*counts)[k];
+  });
 }
 
 }  // namespace kp_test
