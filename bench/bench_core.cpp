@@ -60,6 +60,7 @@ Scene labScene()
 int main(int argc, char** argv)
 {
   int frames = 300, kernel = 3;
+  double surface_band = 0.0;
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
   bool markdown = false;
@@ -95,6 +96,8 @@ int main(int argc, char** argv)
         t = comma == std::string::npos ? "" : t.substr(comma + 1);
       }
     }
+    else if (a == "--surface-band" && i + 1 < argc)
+      surface_band = std::atof(argv[++i]);
     else if (a == "--markdown")
       markdown = true;
     else if (a == "--threads" && i + 1 < argc)
@@ -116,7 +119,7 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--surface-band B] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -149,6 +152,7 @@ int main(int argc, char** argv)
       cfg.open_kernel_size = kernel;
       cfg.projection = projectionFromString(projection);
       cfg.num_threads = threads;
+      cfg.surface_band = surface_band;
       Pipeline pipe(cam, cfg);
       FrameResult res;
       // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
@@ -178,8 +182,8 @@ int main(int argc, char** argv)
   }
 
   std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, opening %dx%d rect, %s projection, "
-              "pitch changing every frame\n",
-              frames, kernel, kernel, projection.c_str());
+              "surface_band %g, pitch changing every frame\n",
+              frames, kernel, kernel, projection.c_str(), surface_band);
   if (markdown)
   {
     std::printf("| encoding | threads | memcpy [ms] | prepare | erode | classify+scan | confidence | frame [ms] | "

@@ -88,6 +88,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         cmd += ["--threads", args.threads]
     if args.encodings:
         cmd += ["--encodings", args.encodings]
+    if args.surface_band:
+        cmd += ["--surface-band", str(args.surface_band)]
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)
@@ -395,6 +397,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--projection", choices=["horizontal", "column"], default="horizontal")
     b.add_argument("--threads", help="comma-separated thread counts, e.g. 1,2,4,8 (default 1,2)")
     b.add_argument("--encodings", help="comma-separated subset of 8UC1,16UC1,32FC1 (default all three)")
+    b.add_argument("--surface-band", type=float, default=0.0, help="the pipeline's surface_band (default 0)")
     b.add_argument("--markdown", action="store_true", help="print a Markdown table")
     b.set_defaults(func=cmd_bench)
 
