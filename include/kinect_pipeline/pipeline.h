@@ -120,6 +120,9 @@ private:
   struct Scratch;
   template <typename T>
   void run(const cv::Mat& depth, FrameResult& out);
+  struct SpanBuffers;
+  template <typename Acc>
+  void binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf, const Acc& acc) const;
   template <typename T>
   void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
   void prepareBuffers(int threads);

@@ -759,6 +759,35 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
  * measured depth of the kept pixels: the opening's max of mins is biased towards the sensor on noise (by about
  * one sigma), the raw depth is not. (Raw >= opened, so no raw range lies below m.)
  */
+/** Buffers of one thread for binSpan. */
+struct Pipeline::SpanBuffers
+{
+  float *z, *fb, *range;
+  std::int32_t *key, *gaps;
+};
+
+/**
+ * Bins the span a..b of row r, whose depths the caller put in buf.z[a..b] (+Inf where nothing is seen), into acc.
+ * One pixel either side goes in as +Inf too: a gap between the span's end and its neighbour is split between
+ * them. buf.fb gets the bin positions of the pixel centres, unless same_fb says it holds them already (the
+ * column projection's, the same for every row).
+ */
+template <typename Acc>
+void Pipeline::binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf, const Acc& acc) const
+{
+  const int w = camera_.width;
+  const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
+  for (int u = a1; u < a; ++u)
+    buf.z[u] = kInf;
+  for (int u = b + 1; u <= b1; ++u)
+    buf.z[u] = kInf;
+  if (!same_fb)
+    projector_.centreBins(r, a1, b1, buf.fb);
+  projector_.spanRanges(r, a1, b1, buf.z, buf.range);
+  binCentres(buf.fb, buf.range, a1, b1, projector_.beams(), 3.14159265f / projector_.angleIncrement(), buf.key,
+             buf.gaps, acc);
+}
+
 template <typename T>
 void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
 {
@@ -772,7 +801,6 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
       band_limit_[k + 1] = static_cast<float>(m + config_.surface_band * evaluateCurve(config_.threshold_curve, m));
   }
   const float scale = depthScale<T>(config_.max_depth);
-  const float half_turn_bins = 3.14159265f / projector_.angleIncrement();
   const bool column = projector_.projection() == Projection::kColumn;
   int team = 1;
 #pragma omp parallel num_threads(threads)
@@ -785,27 +813,17 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
     std::fill(s.band_sum.begin(), s.band_sum.end(), 0);
     std::fill(s.band_n.begin(), s.band_n.end(), 0);
     const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
-    float* z = s.z.data();
-    float* range = s.range.data();
-    float* fb = s.edges.data();
+    const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data()};
     if (column)
-      projector_.centreBins(0, 0, w - 1, fb);  // the same for every row
+      projector_.centreBins(0, 0, w - 1, buf.fb);  // the same for every row
 #pragma omp for schedule(dynamic, 8)
     for (int r = 0; r < h; ++r)
     {
       const int a = spans_[2 * r], b = spans_[2 * r + 1];
       if (a > b)
         continue;
-      keptRawDepth<T>(depth.ptr<T>(r), out.labels.ptr<std::uint8_t>(r), a, b, scale, z);
-      const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
-      for (int u = a1; u < a; ++u)
-        z[u] = kInf;
-      for (int u = b + 1; u <= b1; ++u)
-        z[u] = kInf;
-      if (!column)
-        projector_.centreBins(r, a1, b1, fb);
-      projector_.spanRanges(r, a1, b1, z, range);
-      binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(), acc);
+      keptRawDepth<T>(depth.ptr<T>(r), out.labels.ptr<std::uint8_t>(r), a, b, scale, buf.z);
+      binSpan(r, a, b, column, buf, acc);
     }
   }
   for (int k = 0; k < beams; ++k)
@@ -924,6 +942,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     float* range = s.range.data();
     float* fb = s.edges.data();
     float* bins = s.bins.data() + 1;  // bins[-1] and bins[beams] take what lies outside the scan
+    const SpanBuffers buf{z, fb, range, s.key.data(), s.gaps.data()};
     if (column)
       std::fill(s.colmin.begin(), s.colmin.end(), kInf);
     if (!column)
@@ -1012,13 +1031,9 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           ++a;
         while (lab[b] != kBelowFloor)
           --b;
-        const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
-        for (int u = a1; u <= b1; ++u)
+        for (int u = a; u <= b; ++u)
           z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
-        projector_.centreBins(r, a1, b1, fb);
-        projector_.spanRanges(r, a1, b1, z, range);
-        binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(),
-                   MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
+        binSpan(r, a, b, false, buf, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
@@ -1054,15 +1069,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         if (a > b)
           continue;
         keptDepth<T>(out.depth.ptr<T>(r), a, b, scale, z);
-        // One pixel either side as well: a gap between the span's end and its neighbour is split between them.
-        const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
-        for (int u = a1; u < a; ++u)
-          z[u] = kInf;
-        for (int u = b + 1; u <= b1; ++u)
-          z[u] = kInf;
-        projector_.centreBins(r, a1, b1, fb);
-        projector_.spanRanges(r, a1, b1, z, range);
-        binCentres(fb, range, a1, b1, beams, half_turn_bins, s.key.data(), s.gaps.data(), MinInto{bins});
+        binSpan(r, a, b, false, buf, MinInto{bins});
       }
     }
   }

@@ -139,23 +139,7 @@ Ref reference(const Camera& cam, const Config& cfg, const cv::Mat& in, double pi
     for (int u = 0; u < in.cols; ++u)
     {
       double angle, k;
-      if (cfg.projection == Projection::kHorizontal)
-      {
-        const kp_test::V3 d = kp_test::rayWorld(cam, u, r, pitch, roll);
-        angle = std::atan2(d.y, d.x);
-        k = std::hypot(d.x, d.y);
-      }
-      else if (cfg.geometry == Geometry::kExact)
-      {
-        angle = -std::atan((u - cam.cx) / cam.fx);
-        k = std::sqrt(1.0 + std::pow((u - cam.cx) / cam.fx, 2));
-      }
-      else
-      {
-        const double tx = (u - cam.width / 2.0) / cam.width * cam.hfov();
-        angle = -tx;
-        k = 1.0 / std::cos(tx);
-      }
+      kp_test::pixelBeam(cam, cfg, u, r, pitch, roll, angle, k);
       f[u] = (angle - lo) / scan.angle_increment;
       if (ref.labels.at<std::uint8_t>(r, u) == kKept)
         rng[u] = opened.at<T>(r, u) * scale * k;

@@ -50,17 +50,7 @@ std::vector<std::vector<double>> contributions(const Camera& cam, const Config& 
     for (int u = 0; u < cam.width; ++u)
     {
       double angle, k;
-      if (cfg.projection == Projection::kHorizontal)
-      {
-        const kp_test::V3 d = kp_test::rayWorld(cam, u, r, pitch, roll);
-        angle = std::atan2(d.y, d.x);
-        k = std::hypot(d.x, d.y);
-      }
-      else
-      {
-        angle = -std::atan((u - cam.cx) / cam.fx);
-        k = std::sqrt(1.0 + std::pow((u - cam.cx) / cam.fx, 2));
-      }
+      kp_test::pixelBeam(cam, cfg, u, r, pitch, roll, angle, k);
       f[u] = (angle - lo) / scan.angle_increment;
       double z = kp_test::kInf;
       if (res.labels.at<std::uint8_t>(r, u) == kKept)

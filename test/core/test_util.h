@@ -35,6 +35,34 @@ inline V3 rayWorld(const kinect_pipeline::Camera& c, double u, double v, double 
   return {o[0], o[1], o[2]};
 }
 
+/**
+ * Bearing [rad, counter-clockwise from forward] and range per metre of depth of pixel (u, v) for a projection:
+ * horizontal (the ray in the gravity-aligned frame), or the column model (exact, or the thesis's linear angle).
+ */
+inline void pixelBeam(const kinect_pipeline::Camera& c, const kinect_pipeline::Config& cfg, int u, int v,
+                      double pitch, double roll, double& angle, double& k)
+{
+  using kinect_pipeline::Geometry;
+  using kinect_pipeline::Projection;
+  if (cfg.projection == Projection::kHorizontal)
+  {
+    const V3 d = rayWorld(c, u, v, pitch, roll);
+    angle = std::atan2(d.y, d.x);
+    k = std::hypot(d.x, d.y);
+  }
+  else if (cfg.geometry == Geometry::kExact)
+  {
+    angle = -std::atan((u - c.cx) / c.fx);
+    k = std::sqrt(1.0 + std::pow((u - c.cx) / c.fx, 2));
+  }
+  else
+  {
+    const double tx = (u - c.width / 2.0) / c.width * c.hfov();
+    angle = -tx;
+    k = 1.0 / std::cos(tx);
+  }
+}
+
 /** Depth at which the ray of pixel (u, v) meets the plane z = plane_z, seen from height h; +Inf if never. */
 inline double planeDepth(const kinect_pipeline::Camera& c, int u, int v, double h, double pitch, double roll,
                          double plane_z)
