@@ -59,23 +59,29 @@ float depthScale(double max_depth)
 struct RowCounts
 {
   int kept = 0, invalid = 0, floor = 0, ceiling = 0;
+  int candidates = 0;  // pixels flagged for the rescue (classifyRow)
 };
 
 /**
- * Plane removal of one row: labels and cleaned depth.
+ * Plane removal of one row: labels and cleaned depth, and the flags of the pixels the rescue (below) may relabel:
+ * kept or below the floor, with a raw depth (in) that the opening moved nearer by more than t(opened depth) =
+ * t[u], a superset of those it relabels (t(raw) >= t(opened): the table is non-decreasing; the difference is
+ * computed as rescuePixel computes it). Pass in = src where nothing was opened: nothing is flagged.
  * Branch-free, with restrict pointers, so that the compiler vectorises it.
  * @param rise_row the row's term of the rise per metre of depth (col[u] + rise_row < 0: the ray goes down)
  */
 template <typename T>
-KP_CLONES RowCounts classifyRow(const T* __restrict src, const float* __restrict t, const float* __restrict col, float rise_row,
-                      float scale, float floor_h, float ceil_h, int w, std::uint8_t* __restrict lab, T* __restrict dst)
+KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
+                                const float* __restrict col, float rise_row, float scale, float floor_h, float ceil_h,
+                                int w, std::uint8_t* __restrict lab, T* __restrict dst, std::uint8_t* __restrict cand)
 {
   using Tr = DepthTraits<T>;
   const T removed = Tr::removed();
-  int n_kept = 0, n_invalid = 0, n_floor = 0, n_ceiling = 0;
+  int n_kept = 0, n_invalid = 0, n_floor = 0, n_ceiling = 0, n_cand = 0;
   for (int u = 0; u < w; ++u)
   {
     const T v = src[u];
+    const T raw = in[u];  // unmapped: unknown raw values are 0 or below (moved < 0) or no return
     const float d = static_cast<float>(v) * scale;
     const float rise = col[u] + rise_row;
     const float e = d * rise;
@@ -90,12 +96,17 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const float* __restrict
     const bool keep = !(inv | ceil | below | floor);
     lab[u] = static_cast<std::uint8_t>(inv * kInvalid + ceil * kAboveCeiling + below * kBelowFloor + floor * kFloor);
     dst[u] = keep ? v : removed;
+    // From the unmapped value: a select before the conversion would stop the vectoriser.
+    const float moved = static_cast<float>(raw) * scale - d;
+    const bool flag = (keep | below) & !Tr::isNoReturn(raw) & (moved > t[u]);
+    cand[u] = flag;
+    n_cand += flag;
     n_kept += keep;
     n_invalid += inv;
     n_floor += floor;
     n_ceiling += ceil;
   }
-  return {n_kept, n_invalid, n_floor, n_ceiling};
+  return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
 }
 
 /**
@@ -106,7 +117,7 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const float* __restrict
  * a hole the opening leaves an obstacle pixel, which errs on the safe side.)
  * @param in the input row (unmapped), @param src the opened row
  */
-// One pixel of rescueByRaw (below): @return true if it relabelled the pixel.
+// The rescue of one pixel (above): @return true if it relabelled the pixel.
 template <typename T>
 inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lut, const float* col, float rise_row,
                         float scale, float floor_h, float ceil_h, std::uint8_t* lab, T* dst, RowCounts& c)
@@ -147,27 +158,11 @@ inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lu
   return true;
 }
 
-/**
- * The opening can only move a depth nearer (a max of mins). Where it moved a pixel by more than t(d) and the raw
- * depth shows it on the floor or beyond the ceiling plane (at the corner of an object, or far down the floor where
- * a row spans metres), the raw depth decides: such a pixel is floor / above the ceiling plane, not an obstacle.
- * (Not "below the floor": beyond an object's silhouette that would turn noisy far floor into cliffs; at the rim of
- * a hole the opening leaves an obstacle pixel, which errs on the safe side.)
- * @param in the input row (unmapped), @param src the opened row
- */
+// The rescue on the pixels flagged in cand only (a superset of those it relabels), 8 flags at a time.
 template <typename T>
-void rescueByRaw(const T* __restrict in, const T* __restrict src, const ThresholdLut& lut, const float* col,
-                 float rise_row, float scale, float floor_h, float ceil_h, int w, std::uint8_t* lab, T* dst,
-                 RowCounts& c)
-{
-  for (int u = 0; u < w; ++u)
-    rescuePixel<T>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
-}
-
-// rescueByRaw on the pixels flagged in cand only (a superset of those it relabels), 8 flags at a time.
-void rescueCandidates(const std::uint8_t* cand, const std::uint8_t* in, const std::uint8_t* src,
-                      const ThresholdLut& lut, const float* col, float rise_row, float scale, float floor_h,
-                      float ceil_h, int w, std::uint8_t* lab, std::uint8_t* dst, RowCounts& c)
+void rescueCandidates(const std::uint8_t* cand, const T* in, const T* src, const ThresholdLut& lut,
+                      const float* col, float rise_row, float scale, float floor_h, float ceil_h, int w,
+                      std::uint8_t* lab, T* dst, RowCounts& c)
 {
   for (int u0 = 0; u0 < w; u0 += 8)
   {
@@ -177,7 +172,7 @@ void rescueCandidates(const std::uint8_t* cand, const std::uint8_t* in, const st
       continue;
     for (int u = u0; u < std::min(w, u0 + 8); ++u)
       if (cand[u])
-        rescuePixel<std::uint8_t>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
+        rescuePixel<T>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
   }
 }
 
@@ -266,11 +261,13 @@ struct ValueLabeler
   const std::uint8_t* values;  // 0, 1, ..., 255
   const float *table, *colc;   // the 8-bit threshold table; 256 copies of the column term
   float rise_row, scale, floor_h, ceil_h;
+  std::uint8_t* flags;  // 256 bytes for classifyRow's rescue flags (unused: nothing is opened here)
 
   std::uint8_t operator()(int v) const
   {
     std::uint8_t lab, dst;
-    classifyRow<std::uint8_t>(values + v, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab, &dst);
+    classifyRow<std::uint8_t>(values + v, values + v, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab,
+                              &dst, flags);
     return lab;
   }
 };
@@ -350,8 +347,8 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
     return true;
   }
   const int n = hi - lo + 1;
-  classifyRow<std::uint8_t>(label.values + lo, label.table + lo, label.colc, label.rise_row, label.scale,
-                            label.floor_h, label.ceil_h, n, lab, dst);
+  classifyRow<std::uint8_t>(label.values + lo, label.values + lo, label.table + lo, label.colc, label.rise_row,
+                            label.scale, label.floor_h, label.ceil_h, n, lab, dst, label.flags);
   int i = 0;
   while (i < n && lab[i] == kKept)
     ++i;
@@ -375,7 +372,7 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
 
 // Labels, cleaned depth and counts of an 8-bit row from its value thresholds. Arithmetic on bytes only, with
 // byte counters per block of 128 pixels (a multiple of every vector width), so that it vectorises without a scalar tail.
-// With in (the raw row), also flags in cand the pixels rescueByRaw may relabel: kept or below floor, moved nearer
+// With in (the raw row), also flags in cand the pixels the rescue may relabel: kept or below floor, moved nearer
 // by the opening, and whose raw value has the label floor or above ceiling (values rt1 <= v < rt2).
 KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
                    std::uint8_t* __restrict dst, const std::uint8_t* __restrict in, std::uint8_t* __restrict cand)
@@ -607,7 +604,7 @@ struct Pipeline::Scratch
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::int64_t> band_sum;     // surface_band: ranges within the band per beam [um] (+ padding)
   std::vector<std::int32_t> band_n;       // surface_band: their number per beam (+ padding)
-  std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
+  std::vector<std::uint8_t> vlab, vdst, vflags;  // labels of the 256 values (8-bit rows by value)
   std::vector<std::uint8_t> cand;        // pixels of an 8-bit row the rescue may relabel
   ValueSplit guess;                      // the last row's value thresholds
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
@@ -674,6 +671,7 @@ void Pipeline::prepareBuffers(int threads)
     s.band_n.resize(beams + 2);
     s.vlab.resize(256);
     s.vdst.resize(256);
+    s.vflags.resize(256);
     s.cand.resize(w + 8);
   }
   spans_.resize(2 * static_cast<std::size_t>(camera_.height));
@@ -997,7 +995,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           if (rad > 0 && lo <= hi)
             hi = 254;
           ValueSplit split;
-          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
+          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h,
+                                   s.vflags.data()};
           if (splitValues(label, proof, lo, hi, s.guess, s.vlab.data(), s.vdst.data(), split))
           {
             std::uint8_t* cand = s.cand.data();
@@ -1012,9 +1011,11 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (!done)
       {
         thresholdRow<T>(src, lut, scale, w, s.t.data());
-        c = classifyRow<T>(src, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst);
-        if (rad > 0)
-          rescueByRaw<T>(depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, c);
+        const T* in = rad > 0 ? depth.ptr<T>(r) : src;
+        c = classifyRow<T>(src, in, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, s.cand.data());
+        if (c.candidates > 0)
+          rescueCandidates<T>(s.cand.data(), depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w,
+                              lab, dst, c);
       }
 
       s.counts[kKept] += c.kept;
