@@ -56,6 +56,8 @@ public:
     i = i > 0.0f ? i : 0.0f;
     return table_[static_cast<int>(i)];
   }
+  /** @return forDepth(v * 0.001f) for a 16-bit value v [mm] (16-bit table): one load, no conversion. */
+  float forMillimetres(std::uint16_t v) const { return by_mm_[v]; }
   /** @return t [m] for an 8-bit pixel value (8-bit table). */
   float forValue(std::uint8_t v) const { return table_[v]; }
   /** @return the raw table (for tests). */
@@ -63,6 +65,7 @@ public:
 
 private:
   std::vector<float> table_;
+  std::vector<float> by_mm_;  // 16-bit: forDepth of each value
   float last_ = 0.0f;
 };
 

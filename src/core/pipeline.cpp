@@ -184,6 +184,8 @@ KP_CLONES void thresholdRow(const T* __restrict src, const ThresholdLut& lut, fl
   {
     if constexpr (std::is_same_v<T, std::uint8_t>)
       t[u] = lut.forValue(src[u]);
+    else if constexpr (std::is_same_v<T, std::uint16_t>)
+      t[u] = lut.forMillimetres(src[u]);  // scale is 0.001f
     else
       t[u] = lut.forDepth(static_cast<float>(src[u]) * scale);
   }

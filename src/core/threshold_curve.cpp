@@ -98,6 +98,13 @@ void ThresholdLut::build(const std::vector<CurvePoint>& curve, Encoding encoding
     table_[i] = static_cast<float>(std::max(t, step));
   }
   last_ = static_cast<float>(n - 1);
+  by_mm_.clear();
+  if (encoding == Encoding::kMono16)
+  {
+    by_mm_.resize(65536);
+    for (int v = 0; v < 65536; ++v)
+      by_mm_[v] = forDepth(static_cast<float>(v) * 0.001f);  // as the pipeline computes a 16-bit depth
+  }
 }
 
 }  // namespace kinect_pipeline

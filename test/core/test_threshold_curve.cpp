@@ -31,6 +31,18 @@ TEST(ThresholdLut, EightBitIndexedByValueNeverBelowOneStep)
   }
 }
 
+TEST(ThresholdLut, MillimetreTableIsTheDepthTableForEverySixteenBitValue)
+{
+  ThresholdLut lut;
+  lut.build({{0.5, 0.004}, {2.0, 0.02}, {9.0, 0.31}}, Encoding::kMono16, 12.0);
+  int differ = 0;
+  for (int v = 0; v < 65536; ++v)
+    differ += lut.forMillimetres(static_cast<std::uint16_t>(v)) != lut.forDepth(static_cast<float>(v) * 0.001f);
+  EXPECT_EQ(differ, 0);
+  EXPECT_FLOAT_EQ(lut.forMillimetres(65535), 0.31f);  // beyond the table: its last cell
+  EXPECT_GT(lut.forMillimetres(3000), lut.forMillimetres(1000));
+}
+
 TEST(ThresholdLut, DepthTableIsTheCurveAtCentimetreCells)
 {
   const auto c = defaultThresholdCurve();
