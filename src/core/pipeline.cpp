@@ -549,36 +549,46 @@ struct BandSum  // sum [um] and number of the ranges no farther than limit[k] (e
   }
 };
 
+// flag[u] = whether the centres of pixels u and u + 1 lie more than a bin apart, u in [a, b); 0 from b to b + 7.
+KP_CLONES void gapFlags(const std::int32_t* __restrict key, int a, int b, std::uint8_t* __restrict flag)
+{
+  for (int u = a; u < b; ++u)
+    flag[u] = static_cast<unsigned>(key[u + 1] - key[u] + 1) > 2u;
+  std::memset(flag + b, 0, 8);
+}
+
+// A gap of whole bins between the centres of pixels u and u + 1: split it at the middle (pixels wider than beams).
+template <typename Acc>
+inline void binGap(int u, const float* fc, const float* range, int beams, float half_turn_bins, const Acc& acc)
+{
+  const float r = range[u], r1 = range[u + 1];
+  const float f0 = fc[u], f1 = fc[u + 1];
+  if ((!(r < kInf) && !(r1 < kInf)) || std::fabs(f1 - f0) > half_turn_bins)
+    return;
+  const float lo = f0 < f1 ? f0 : f1, hi = f0 < f1 ? f1 : f0;
+  const int k0 = std::max(0, static_cast<int>(std::floor(lo)) + 1);
+  const int k1 = std::min(beams - 1, static_cast<int>(std::floor(hi)) - 1);
+  const float mid = 0.5f * (lo + hi);
+  const float r_lo = f0 < f1 ? r : r1, r_hi = f0 < f1 ? r1 : r;
+  for (int k = k0; k <= k1; ++k)
+    acc(k, (k + 0.5f) < mid ? r_lo : r_hi);
+}
+
 template <typename Acc>
 void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins,
-                std::int32_t* key, std::int32_t* gaps, const Acc& acc)
+                std::int32_t* key, std::uint8_t* flag, const Acc& acc)
 {
   binIndices(fc, a, b, static_cast<float>(beams), key);
-  // Pairs of neighbours whose centres are more than a bin apart, listed without a branch (they come irregularly).
-  int n = 0;
-  for (int u = a; u < b; ++u)
-  {
-    gaps[n] = u;
-    n += static_cast<unsigned>(key[u + 1] - key[u] + 1) > 2u;
-  }
+  gapFlags(key, a, b, flag);
   for (int u = a; u <= b; ++u)
     acc(key[u], range[u]);  // bins[-1] and bins[beams] take what lies outside the scan
-  for (int i = 0; i < n; ++i)
+  // The flagged pairs come irregularly: 8 flags at a time, then their set bytes.
+  for (int u0 = a; u0 < b; u0 += 8)
   {
-    const int u = gaps[i];
-    const float r = range[u];
-    // A gap of whole bins between neighbouring centres: split it at the middle (rare: pixels wider than beams).
-    const float f0 = fc[u], f1 = fc[u + 1];
-    const float r1 = range[u + 1];
-    if ((!(r < kInf) && !(r1 < kInf)) || std::fabs(f1 - f0) > half_turn_bins)
-      continue;
-    const float lo = f0 < f1 ? f0 : f1, hi = f0 < f1 ? f1 : f0;
-    const int k0 = std::max(0, static_cast<int>(std::floor(lo)) + 1);
-    const int k1 = std::min(beams - 1, static_cast<int>(std::floor(hi)) - 1);
-    const float mid = 0.5f * (lo + hi);
-    const float r_lo = f0 < f1 ? r : r1, r_hi = f0 < f1 ? r1 : r;
-    for (int k = k0; k <= k1; ++k)
-      acc(k, (k + 0.5f) < mid ? r_lo : r_hi);
+    std::uint64_t x;
+    std::memcpy(&x, flag + u0, 8);
+    for (; x != 0; x &= x - 1)
+      binGap(u0 + __builtin_ctzll(x) / 8, fc, range, beams, half_turn_bins, acc);
   }
 }
 
@@ -601,7 +611,7 @@ struct Pipeline::Scratch
   std::vector<float> edges;      // bin positions of the row's pixel centres
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
-  std::vector<std::int32_t> gaps;  // pixels of the row whose next neighbour's centre is more than a bin away
+  std::vector<std::uint8_t> gaps;  // flags: pixels of the row whose next neighbour's centre is more than a bin away
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::int64_t> band_sum;     // surface_band: ranges within the band per beam [um] (+ padding)
@@ -666,7 +676,7 @@ void Pipeline::prepareBuffers(int threads)
     s.edges.resize(w + 1);
     s.bins.resize(beams + 2);  // from beam -1 to beams: what lies outside the scan goes to the ends
     s.key.resize(w);
-    s.gaps.resize(w);
+    s.gaps.resize(w + 8);
     s.cliff_bins.resize(beams + 2);
     s.cliff_count.resize(beams + 2);
     s.band_sum.resize(beams + 2);
@@ -763,7 +773,8 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
 struct Pipeline::SpanBuffers
 {
   float *z, *fb, *range;
-  std::int32_t *key, *gaps;
+  std::int32_t* key;
+  std::uint8_t* gaps;
 };
 
 /**
