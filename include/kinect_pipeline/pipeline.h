@@ -121,6 +121,7 @@ private:
   template <typename T>
   void run(const cv::Mat& depth, FrameResult& out);
   struct SpanBuffers;
+  Scratch& teamScratch(int& team);
   template <typename Acc>
   void binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf, const Acc& acc) const;
   template <typename T>

@@ -66,11 +66,11 @@ struct RowCounts
  * Plane removal of one row: labels and cleaned depth, and the flags of the pixels the rescue (below) may relabel:
  * kept or below the floor, with a raw depth (in) that the opening moved nearer by more than t(opened depth) =
  * t[u], a superset of those it relabels (t(raw) >= t(opened): the table is non-decreasing; the difference is
- * computed as rescuePixel computes it). Pass in = src where nothing was opened: nothing is flagged.
+ * computed as rescuePixel computes it). Without kRescue (nothing was opened) in and cand are not used.
  * Branch-free, with restrict pointers, so that the compiler vectorises it.
  * @param rise_row the row's term of the rise per metre of depth (col[u] + rise_row < 0: the ray goes down)
  */
-template <typename T>
+template <typename T, bool kRescue>
 KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
                                 const float* __restrict col, float rise_row, float scale, float floor_h, float ceil_h,
                                 int w, std::uint8_t* __restrict lab, T* __restrict dst, std::uint8_t* __restrict cand)
@@ -81,7 +81,6 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
   for (int u = 0; u < w; ++u)
   {
     const T v = src[u];
-    const T raw = in[u];  // unmapped: unknown raw values are 0 or below (moved < 0) or no return
     const float d = static_cast<float>(v) * scale;
     const float rise = col[u] + rise_row;
     const float e = d * rise;
@@ -96,11 +95,16 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
     const bool keep = !(inv | ceil | below | floor);
     lab[u] = static_cast<std::uint8_t>(inv * kInvalid + ceil * kAboveCeiling + below * kBelowFloor + floor * kFloor);
     dst[u] = keep ? v : removed;
-    // From the unmapped value: a select before the conversion would stop the vectoriser.
-    const float moved = static_cast<float>(raw) * scale - d;
-    const bool flag = (keep | below) & !Tr::isNoReturn(raw) & (moved > t[u]);
-    cand[u] = flag;
-    n_cand += flag;
+    if constexpr (kRescue)
+    {
+      // From the unmapped raw value (unknown ones are 0 or below: moved < 0; or no return): a select before the
+      // conversion would stop the vectoriser.
+      const T raw = in[u];
+      const float moved = static_cast<float>(raw) * scale - d;
+      const bool flag = (keep | below) & !Tr::isNoReturn(raw) & (moved > t[u]);
+      cand[u] = flag;
+      n_cand += flag;
+    }
     n_kept += keep;
     n_invalid += inv;
     n_floor += floor;
@@ -263,13 +267,12 @@ struct ValueLabeler
   const std::uint8_t* values;  // 0, 1, ..., 255
   const float *table, *colc;   // the 8-bit threshold table; 256 copies of the column term
   float rise_row, scale, floor_h, ceil_h;
-  std::uint8_t* flags;  // 256 bytes for classifyRow's rescue flags (unused: nothing is opened here)
 
   std::uint8_t operator()(int v) const
   {
     std::uint8_t lab, dst;
-    classifyRow<std::uint8_t>(values + v, values + v, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab,
-                              &dst, flags);
+    classifyRow<std::uint8_t, false>(values + v, nullptr, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab,
+                                     &dst, nullptr);
     return lab;
   }
 };
@@ -349,8 +352,8 @@ bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int
     return true;
   }
   const int n = hi - lo + 1;
-  classifyRow<std::uint8_t>(label.values + lo, label.values + lo, label.table + lo, label.colc, label.rise_row,
-                            label.scale, label.floor_h, label.ceil_h, n, lab, dst, label.flags);
+  classifyRow<std::uint8_t, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
+                                   label.scale, label.floor_h, label.ceil_h, n, lab, dst, nullptr);
   int i = 0;
   while (i < n && lab[i] == kKept)
     ++i;
@@ -616,7 +619,7 @@ struct Pipeline::Scratch
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::int64_t> band_sum;     // surface_band: ranges within the band per beam [um] (+ padding)
   std::vector<std::int32_t> band_n;       // surface_band: their number per beam (+ padding)
-  std::vector<std::uint8_t> vlab, vdst, vflags;  // labels of the 256 values (8-bit rows by value)
+  std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
   std::vector<std::uint8_t> cand;        // pixels of an 8-bit row the rescue may relabel
   ValueSplit guess;                      // the last row's value thresholds
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
@@ -683,7 +686,6 @@ void Pipeline::prepareBuffers(int threads)
     s.band_n.resize(beams + 2);
     s.vlab.resize(256);
     s.vdst.resize(256);
-    s.vflags.resize(256);
     s.cand.resize(w + 8);
   }
   spans_.resize(2 * static_cast<std::size_t>(camera_.height));
@@ -769,6 +771,19 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
  * measured depth of the kept pixels: the opening's max of mins is biased towards the sensor on noise (by about
  * one sigma), the raw depth is not. (Raw >= opened, so no raw range lies below m.)
  */
+/**
+ * In a parallel region: this thread's scratch; one thread also sets team to the number of threads OpenMP gave
+ * (only their scratch holds this frame's sums).
+ */
+Pipeline::Scratch& Pipeline::teamScratch(int& team)
+{
+#ifdef _OPENMP
+#pragma omp single nowait
+  team = omp_get_num_threads();
+#endif
+  return *scratch_[threadId()];
+}
+
 /** Buffers of one thread for binSpan. */
 struct Pipeline::SpanBuffers
 {
@@ -816,11 +831,7 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
   int team = 1;
 #pragma omp parallel num_threads(threads)
   {
-    Scratch& s = *scratch_[threadId()];
-#ifdef _OPENMP
-#pragma omp single nowait
-    team = omp_get_num_threads();
-#endif
+    Scratch& s = teamScratch(team);
     std::fill(s.band_sum.begin(), s.band_sum.end(), 0);
     std::fill(s.band_n.begin(), s.band_n.end(), 0);
     const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
@@ -927,11 +938,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   Clock::time_point t2 = t1;
 #pragma omp parallel num_threads(threads)
   {
-    Scratch& s = *scratch_[threadId()];
-#ifdef _OPENMP
-#pragma omp single nowait
-    team = omp_get_num_threads();
-#endif
+    Scratch& s = teamScratch(team);
     if (rad > 0 && rect)
     {
 #pragma omp for schedule(static)
@@ -1008,8 +1015,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           if (rad > 0 && lo <= hi)
             hi = 254;
           ValueSplit split;
-          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h,
-                                   s.vflags.data()};
+          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues(label, proof, lo, hi, s.guess, s.vlab.data(), s.vdst.data(), split))
           {
             std::uint8_t* cand = s.cand.data();
@@ -1024,8 +1030,12 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (!done)
       {
         thresholdRow<T>(src, lut, scale, w, s.t.data());
-        const T* in = rad > 0 ? depth.ptr<T>(r) : src;
-        c = classifyRow<T>(src, in, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst, s.cand.data());
+        if (rad > 0)
+          c = classifyRow<T, true>(src, depth.ptr<T>(r), s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab,
+                                   dst, s.cand.data());
+        else
+          c = classifyRow<T, false>(src, nullptr, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst,
+                                    nullptr);
         if (c.candidates > 0)
           rescueCandidates<T>(s.cand.data(), depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w,
                               lab, dst, c);
