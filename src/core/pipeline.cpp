@@ -63,6 +63,29 @@ struct RowCounts
 };
 
 /**
+ * The plane removal of one pixel of (mapped) value v with threshold t [m] and rise (col[u] + rise_row): exclusive
+ * classes, kept if none; @return its label. The one definition, inlined into classifyRow's vectorised loop and
+ * used for single values (ValueLabeler). Outputs by reference: a returned struct stops the vectoriser.
+ */
+template <typename T>
+__attribute__((always_inline)) inline std::uint8_t classifyPixel(T v, float t, float rise, float scale, float floor_h,
+                                                                 float ceil_h, float& d, bool& keep, bool& below)
+{
+  d = static_cast<float>(v) * scale;
+  const float e = d * rise;
+  const float above = e + floor_h;  // height above the floor (exact geometry)
+  const float band = t * rise;      // -t * |rise| where the ray meets the floor
+  const bool down = rise < 0.0f;
+  // Exclusive masks combined arithmetically (a select chain would not vectorise).
+  const bool inv = DepthTraits<T>::isNoReturn(v);
+  const bool ceil = !inv & (e > ceil_h);
+  below = !inv & !ceil & down & (above < band);
+  const bool floor = !inv & !ceil & !below & down & (above < -band);
+  keep = !(inv | ceil | below | floor);
+  return static_cast<std::uint8_t>(inv * kInvalid + ceil * kAboveCeiling + below * kBelowFloor + floor * kFloor);
+}
+
+/**
  * Plane removal of one row: labels and cleaned depth, and the flags of the pixels the rescue (below) may relabel:
  * kept or below the floor, with a raw depth (in) that the opening moved nearer by more than t(opened depth) =
  * t[u], a superset of those it relabels (t(raw) >= t(opened): the table is non-decreasing; the difference is
@@ -81,19 +104,10 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
   for (int u = 0; u < w; ++u)
   {
     const T v = src[u];
-    const float d = static_cast<float>(v) * scale;
-    const float rise = col[u] + rise_row;
-    const float e = d * rise;
-    const float above = e + floor_h;  // height above the floor (exact geometry)
-    const float band = t[u] * rise;   // -t * |rise| where the ray meets the floor
-    const bool down = rise < 0.0f;
-    // Exclusive masks combined arithmetically (a select chain would not vectorise).
-    const bool inv = Tr::isNoReturn(v);
-    const bool ceil = !inv & (e > ceil_h);
-    const bool below = !inv & !ceil & down & (above < band);
-    const bool floor = !inv & !ceil & !below & down & (above < -band);
-    const bool keep = !(inv | ceil | below | floor);
-    lab[u] = static_cast<std::uint8_t>(inv * kInvalid + ceil * kAboveCeiling + below * kBelowFloor + floor * kFloor);
+    float d;
+    bool keep, below;
+    const std::uint8_t l = classifyPixel(v, t[u], col[u] + rise_row, scale, floor_h, ceil_h, d, keep, below);
+    lab[u] = l;
     dst[u] = keep ? v : removed;
     if constexpr (kRescue)
     {
@@ -106,9 +120,9 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
       n_cand += flag;
     }
     n_kept += keep;
-    n_invalid += inv;
-    n_floor += floor;
-    n_ceiling += ceil;
+    n_invalid += l == kInvalid;
+    n_floor += l == kFloor;
+    n_ceiling += l == kAboveCeiling;
   }
   return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
 }
@@ -162,22 +176,24 @@ inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lu
   return true;
 }
 
-// The rescue on the pixels flagged in cand only (a superset of those it relabels), 8 flags at a time.
+// The rescue on the pixels flagged in cand only (a superset of those it relabels): 8 flags (0/1 bytes) at a time,
+// then their set bytes.
 template <typename T>
 void rescueCandidates(const std::uint8_t* cand, const T* in, const T* src, const ThresholdLut& lut,
                       const float* col, float rise_row, float scale, float floor_h, float ceil_h, int w,
                       std::uint8_t* lab, T* dst, RowCounts& c)
 {
-  for (int u0 = 0; u0 < w; u0 += 8)
+  const int full = w & ~7;
+  for (int u0 = 0; u0 < full; u0 += 8)
   {
-    std::uint64_t x = 0;
-    std::memcpy(&x, cand + u0, static_cast<std::size_t>(std::min(8, w - u0)));
-    if (x == 0)
-      continue;
-    for (int u = u0; u < std::min(w, u0 + 8); ++u)
-      if (cand[u])
-        rescuePixel<T>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
+    std::uint64_t x;
+    std::memcpy(&x, cand + u0, 8);
+    for (; x != 0; x &= x - 1)
+      rescuePixel<T>(u0 + __builtin_ctzll(x) / 8, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
   }
+  for (int u = full; u < w; ++u)
+    if (cand[u])
+      rescuePixel<T>(u, in, src, lut, col, rise_row, scale, floor_h, ceil_h, lab, dst, c);
 }
 
 template <typename T>
@@ -261,7 +277,7 @@ struct ValueProof
   }
 };
 
-/** Labels single values with classifyRow itself, so that they are the per-pixel labels bit for bit. */
+/** Labels single values with classifyPixel, as classifyRow labels pixels: the same labels, bit for bit. */
 struct ValueLabeler
 {
   const std::uint8_t* values;  // 0, 1, ..., 255
@@ -270,10 +286,9 @@ struct ValueLabeler
 
   std::uint8_t operator()(int v) const
   {
-    std::uint8_t lab, dst;
-    classifyRow<std::uint8_t, false>(values + v, nullptr, table + v, colc, rise_row, scale, floor_h, ceil_h, 1, &lab,
-                                     &dst, nullptr);
-    return lab;
+    float d;
+    bool keep, below;
+    return classifyPixel(values[v], table[v], colc[0] + rise_row, scale, floor_h, ceil_h, d, keep, below);
   }
 };
 
@@ -387,11 +402,11 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
   const std::uint8_t fix = static_cast<std::uint8_t>(l1 + l2 - kInvalid);
   const bool rescuable = s.t1 < 255 && (s.l1 == kFloor || s.l1 == kAboveCeiling);
   const std::uint8_t rt1 = rescuable ? t1 : 255, rt2 = t2;
-  int n1 = 0, n2 = 0, ni = 0;
+  int n1 = 0, n2 = 0, ni = 0, nc = 0;
   for (int u0 = 0; u0 < w; u0 += 128)
   {
     const int u1 = std::min(w, u0 + 128);
-    std::uint8_t c1 = 0, c2 = 0, ci = 0;
+    std::uint8_t c1 = 0, c2 = 0, ci = 0, cc = 0;
     if (in)
     {
       for (int u = u0; u < u1; ++u)
@@ -405,8 +420,10 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
         c2 += g2;
         ci += inv;
         const std::uint8_t raw = in[u] < DepthTraits<std::uint8_t>::kMinValid ? 255 : in[u];
-        cand[u] = static_cast<std::uint8_t>(((l == kKept) | (l == kBelowFloor)) & (raw > v) & (raw >= rt1) &
-                                            (raw < rt2));
+        const std::uint8_t f = static_cast<std::uint8_t>(((l == kKept) | (l == kBelowFloor)) & (raw > v) &
+                                                         (raw >= rt1) & (raw < rt2));
+        cand[u] = f;
+        cc += f;
       }
     }
     else
@@ -425,6 +442,7 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
     n1 += c1;
     n2 += c2;
     ni += ci;
+    nc += cc;
   }
   RowCounts c;
   c.kept = w - n1;
@@ -432,6 +450,7 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
   // n1 - n2 pixels have label l1; the 255s count in n1 and n2 alike.
   c.floor = s.l1 == kFloor ? n1 - n2 : 0;
   c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
+  c.candidates = nc;
   return c;
 }
 
@@ -1020,7 +1039,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           {
             std::uint8_t* cand = s.cand.data();
             c = splitRow(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
-            if (rad > 0)
+            if (c.candidates > 0)
               rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
                                dst, c);
             done = true;
