@@ -98,7 +98,7 @@ def _stop(proc: subprocess.Popen[Any]) -> None:
             proc.wait(timeout=5)
 
 
-def run(frames: int = 300, rate: float = 30.0, threads: int = 0, only: str | None = None) -> list[Measurement]:
+def run(frames: int = 300, rate: float = 30.0, threads: int = 1, only: str | None = None) -> list[Measurement]:
     """Runs relay, node and nodelet one after the other with the same frames and returns their numbers.
     ``threads`` is the pipeline's num_threads (0: OpenMP's default)."""
     port = _free_port()

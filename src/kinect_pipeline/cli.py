@@ -517,7 +517,9 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("bench-ros", help="image->scan latency and CPU: node, nodelet, bare image_transport relay")
     r.add_argument("--frames", type=int, default=300)
     r.add_argument("--rate", type=float, default=30.0, help="frames per second")
-    r.add_argument("--threads", type=int, default=0, help="the pipeline's num_threads (0: OpenMP default)")
+    r.add_argument(
+        "--threads", type=int, default=1, help="the pipeline's num_threads (default 1, as the node's; 0: OpenMP default)"
+    )
     r.set_defaults(func=cmd_bench_ros)
 
     q = sub.add_parser("quality", help="quality table per pitch condition and mode vs baselines (ground truth)")
@@ -536,7 +538,7 @@ def build_parser() -> argparse.ArgumentParser:
     so = sub.add_parser("soak", help="long run through a real roscore: drops, latency, memory at start and end")
     so.add_argument("--minutes", type=float, default=10.0)
     so.add_argument("--rate", type=float, default=30.0)
-    so.add_argument("--threads", type=int, default=0)
+    so.add_argument("--threads", type=int, default=1, help="the pipeline's num_threads (default 1, as the node's)")
     so.add_argument("--subject", choices=["node", "nodelet"], default="nodelet")
     so.set_defaults(func=cmd_soak)
 
