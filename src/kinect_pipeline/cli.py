@@ -518,7 +518,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--frames", type=int, default=300)
     r.add_argument("--rate", type=float, default=30.0, help="frames per second")
     r.add_argument(
-        "--threads", type=int, default=1, help="the pipeline's num_threads (default 1, as the node's; 0: OpenMP default)"
+        "--threads",
+        type=int,
+        default=1,
+        help="the pipeline's num_threads (default 1, as the node's; 0: OpenMP default)",
     )
     r.set_defaults(func=cmd_bench_ros)
 
