@@ -533,12 +533,15 @@ KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restr
  */
 KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
 {
-  // floor() for positions > -1024, clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches.
+  // floor(), clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches. Exactly the floor
+  // binGap takes of the same positions (an offset added to make them positive rounded those just below a border
+  // up, and the gap fill then left the bin below them empty in that row).
   for (int u = a; u <= b; ++u)
   {
     float f = fc[u];
     f = !(f >= -1.0f) ? -1.0f : (f > beams ? beams : f);  // NaN goes to the padding slot too
-    key[u] = static_cast<std::int32_t>(f + 1024.0f) - 1024;
+    const std::int32_t t = static_cast<std::int32_t>(f);    // towards zero
+    key[u] = t - (f < static_cast<float>(t));
   }
 }
 
