@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _core, kinect_v2_camera
 from .demo import SegwayMotion, progress
-from .metrics import ideal_scan
+from .metrics import ideal_scan, phantom_fractions
 from .scenes import FIRST_BOX, FLOOR, Scene, lab_scene, render_frame
 
 HEIGHT, TILT = 1.1, math.radians(15.0)
@@ -149,15 +149,9 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
 def phantom_rates(
     truth: dict[str, np.ndarray], ranges: Any, angle_min: float, inc: float, obstacle: np.ndarray
 ) -> tuple[float, float]:
-    """Fractions of beams that are phantom: shorter than the nearest true obstacle (within one beam either side)
-    by > 5 cm, and by > 5 cm + 4 sigma of the sensor's noise. A kept floor pixel makes one, as navigation sees it."""
-    n = len(ranges)
-    real = ideal_scan(truth, angle_min, inc, n, obstacle)
-    real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
-    r = np.asarray(ranges, np.float64)
-    fin = np.isfinite(r)
-    sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
-    return float((fin & (r < real - 0.05)).sum() / n), float((fin & (r < real - 0.05 - 4 * sigma)).sum() / n)
+    """Fractions of beams that are phantom (metrics.phantom_fractions) against the nearest true obstacle: by > 5 cm,
+    and by > 5 cm + 4 sigma of the sensor's noise. A kept floor pixel makes one, as navigation sees it."""
+    return phantom_fractions(ranges, ideal_scan(truth, angle_min, inc, len(ranges), obstacle))
 
 
 def _scan_geometry(cam: _core.Camera) -> tuple[float, float]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import subprocess
 from pathlib import Path
@@ -157,7 +158,12 @@ def test_report_writes_pictures_and_an_index(bag: Path, tmp_path: Path) -> None:
     for name in ("frame.png", "scan.png", "confidence.png", "timing.png"):
         assert f'src="{name}"' in page
     assert summary["frames"] == FRAMES
-    assert 0.0 <= summary["phantom_beams"] <= 1.0 and summary["label_agreement_min"] > 0.95
+    assert summary["label_agreement_min"] > 0.95
+    # The goal's phantom count (noise allowed) and the plain 5 cm count, which can only be the larger.
+    assert summary["phantom_beams"] <= 0.002, summary
+    assert summary["phantom_beams"] <= summary["phantom_beams_5cm"] <= 1.0
+    assert summary["missed_beams"] <= 0.01, summary
+    assert json.loads((tmp_path / "rep" / "quality.json").read_text())["phantom_beams"] == summary["phantom_beams"]
 
 
 # -- resuming an interrupted replay ----------------------------------------------------------------------------
