@@ -533,9 +533,8 @@ KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restr
  */
 KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
 {
-  // floor(), clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches. Exactly the floor
-  // binGap takes of the same positions (an offset added to make them positive rounded those just below a border
-  // up, and the gap fill then left the bin below them empty in that row).
+  // floor(), clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches. It must be the exact
+  // floor, the one binGap takes: a key rounded up (as adding 1024 did) left the bin below it empty in that row.
   for (int u = a; u <= b; ++u)
   {
     float f = fc[u];

@@ -42,21 +42,25 @@ def ideal_scan(
     return out
 
 
-def phantom_fractions(ranges: np.ndarray, real: np.ndarray) -> tuple[float, float]:
-    """Fractions of all beams that are phantom against ``real`` (the true nearest range per beam, +Inf none):
-    finite and shorter than the nearest real range within one beam either side by more than 5 cm, and by more
-    than 5 cm + 4 sigma of the sensor's noise at that range (the goal's definition: a min over many noisy pixels
-    lies about 2 sigma short of a far wall, which the plain 5 cm count takes for phantoms)."""
+def phantom_beams(ranges: np.ndarray, real: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Phantom beams against ``real`` (the true nearest range per beam, +Inf none): finite and shorter than the
+    nearest real range within one beam either side by more than 5 cm (first mask), and by more than 5 cm + 4 sigma
+    of the sensor's noise at that range (second: the goal's definition; a min over many noisy pixels lies about
+    2 sigma short of a far wall, which the plain 5 cm rule takes for phantoms)."""
     real = np.asarray(real, np.float64)
     real = np.minimum(real, np.minimum(np.roll(real, 1), np.roll(real, -1)))
     r = np.asarray(ranges, np.float64)
-    n = len(r)
-    if n == 0:
-        return float("nan"), float("nan")
     fin = np.isfinite(r)
     # horizontal range <= depth: sigma(range) is the smaller, stricter margin
     sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
-    return float((fin & (r < real - 0.05)).sum() / n), float((fin & (r < real - 0.05 - 4.0 * sigma)).sum() / n)
+    return fin & (r < real - 0.05), fin & (r < real - 0.05 - 4.0 * sigma)
+
+
+def missed_beams(ranges: np.ndarray, real: np.ndarray) -> np.ndarray:
+    """Beams where ``real`` has an obstacle and the scan has none or puts it more than 10 cm too far."""
+    r = np.asarray(ranges, np.float64)
+    real = np.asarray(real, np.float64)
+    return np.isfinite(real) & (~np.isfinite(r) | (r > real + 0.10))
 
 
 def frame_quality(
@@ -86,7 +90,7 @@ def frame_quality(
         floor_removed=frac(floor, removed),
         obstacles_kept=frac(obstacles, ~removed),
         above_ceiling_removed=frac(above, removed),
-        phantom_beams=phantom_fractions(result.ranges, real)[1],
+        phantom_beams=float(phantom_beams(result.ranges, real)[1].sum() / beams),
         floor_pixels=int(floor.sum()),
         obstacle_pixels=int(obstacles.sum()),
         above_ceiling_pixels=int(above.sum()),

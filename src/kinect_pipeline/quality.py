@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _core, kinect_v2_camera
 from .demo import SegwayMotion, progress
-from .metrics import ideal_scan, phantom_fractions
+from .metrics import ideal_scan, missed_beams, phantom_beams
 from .scenes import FIRST_BOX, FLOOR, Scene, lab_scene, render_frame
 
 HEIGHT, TILT = 1.1, math.radians(15.0)
@@ -118,7 +118,7 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
                 tall_scan = ideal_scan(t, angle_min, inc, n, np.isin(obj, list(tall)) & (height <= 2.0))
                 seen = np.isfinite(tall_scan)
                 if seen.any():
-                    miss = seen & (~fin | (r > tall_scan + 0.10))
+                    miss = missed_beams(r, tall_scan)
                     acc.setdefault("missed", []).append(float(miss.sum() / seen.sum()))
                 obst_scan = ideal_scan(t, angle_min, inc, n, obstacle)
                 both = fin & np.isfinite(obst_scan)
@@ -149,9 +149,10 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
 def phantom_rates(
     truth: dict[str, np.ndarray], ranges: Any, angle_min: float, inc: float, obstacle: np.ndarray
 ) -> tuple[float, float]:
-    """Fractions of beams that are phantom (metrics.phantom_fractions) against the nearest true obstacle: by > 5 cm,
+    """Fractions of beams that are phantom (metrics.phantom_beams) against the nearest true obstacle: by > 5 cm,
     and by > 5 cm + 4 sigma of the sensor's noise. A kept floor pixel makes one, as navigation sees it."""
-    return phantom_fractions(ranges, ideal_scan(truth, angle_min, inc, len(ranges), obstacle))
+    over_5cm, over_noise = phantom_beams(ranges, ideal_scan(truth, angle_min, inc, len(ranges), obstacle))
+    return float(over_5cm.mean()), float(over_noise.mean())
 
 
 def _scan_geometry(cam: _core.Camera) -> tuple[float, float]:

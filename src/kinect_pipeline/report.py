@@ -20,7 +20,7 @@ import numpy as np
 
 from . import _core
 from .demo import _save_atomic, plot_frame
-from .metrics import phantom_fractions
+from .metrics import missed_beams, phantom_beams
 from .replay import (
     ReplayError,
     ReplayOptions,
@@ -237,16 +237,14 @@ def write_report(
     }
     with_gt = [f for f in c.frames if f.gt_scan is not None]
     if with_gt:
-        phantom = phantom_5cm = 0.0
-        missed = beams = 0
+        phantom = phantom_5cm = missed = beams = 0
         for f in with_gt:
-            gt = np.asarray(f.gt_scan)
-            over_5cm, over_noise = phantom_fractions(f.ranges, gt)
-            phantom += over_noise * len(f.ranges)
-            phantom_5cm += over_5cm * len(f.ranges)
-            fin = np.isfinite(f.ranges)
-            seen = np.isfinite(gt)
-            missed += int((seen & (~fin | (f.ranges > gt + 0.10))).sum())
+            gt = f.gt_scan
+            assert gt is not None  # with_gt
+            over_5cm, over_noise = phantom_beams(f.ranges, gt)
+            phantom += int(over_noise.sum())
+            phantom_5cm += int(over_5cm.sum())
+            missed += int(missed_beams(f.ranges, gt).sum())
             beams += len(f.ranges)
         # The goal's phantom (> 5 cm + 4 sigma short, as quality.json of the demo and `quality`), and the plain
         # 5 cm count, which a far wall's noise fills (the min over its pixels lies about 2 sigma short).

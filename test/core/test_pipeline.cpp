@@ -347,7 +347,6 @@ TEST(PipelineEdge, OneRowAndOneColumnImages)
 // fill between them and their neighbour split at the exact border, which left the bin between them empty.
 TEST(PipelineEdge, OneRowWallLeavesNoBinEmptyAtAnySubPixelShift)
 {
-  int checked = 0;
   for (int i = 0; i < 3000; ++i)
   {
     const double cx = 254.5 + i * 1e-3;
@@ -370,9 +369,7 @@ TEST(PipelineEdge, OneRowWallLeavesNoBinEmptyAtAnySubPixelShift)
     for (int k = first; k <= last; ++k)
       ASSERT_TRUE(std::isfinite(r[k])) << "cx " << cx << ": bin " << k << " empty between bins " << first << " and "
                                        << last << " of a wall";
-    ++checked;
   }
-  EXPECT_EQ(checked, 3000);
 }
 
 TEST(PipelineEdge, NoFloorInViewRemovesNoFloor)
