@@ -66,6 +66,23 @@ struct FrameResult
   StageTimes times;
 };
 
+namespace detail
+{
+/**
+ * The threshold table's terms of the proof that the labels of a row without roll are monotone in the pixel value
+ * (8- and 16-bit; see ValueProof in pipeline.cpp), over the values below the encoding's no-return value.
+ */
+struct ValueTerms
+{
+  bool nondecreasing = false;  ///< the table never decreases
+  double gap_min = 0.0;        ///< smallest growth of depth - threshold from one value to the next [m]
+  /// smallest growth of depth - threshold from a value to any value kValueWindow or more above it [m]
+  double gap_window = 0.0;
+  static constexpr int kValueWindow = 4;
+  double d_max = 0.0, t_max = 0.0;  ///< depth and threshold of the largest value [m]
+};
+}  // namespace detail
+
 /**
  * The per-frame processing of thesis section 4.4.1, with exact geometry by default.
  *
@@ -136,6 +153,7 @@ private:
   ThresholdLut lut_;
   Encoding lut_encoding_ = Encoding::kMono8;
   bool lut_valid_ = false;
+  detail::ValueTerms value_terms_;  ///< rebuilt with the table (8- and 16-bit)
   cv::Mat eroded_, mapped_, opened_;
   std::vector<std::int32_t> spans_;  ///< first and last kept column of each row (first > last: none)
   std::vector<std::int32_t> cliff_count_;  ///< below-floor pixels per beam of the frame

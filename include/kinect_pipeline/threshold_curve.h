@@ -60,6 +60,14 @@ public:
   float forMillimetres(std::uint16_t v) const { return by_mm_[v]; }
   /** @return t [m] for an 8-bit pixel value (8-bit table). */
   float forValue(std::uint8_t v) const { return table_[v]; }
+  /**
+   * @return the threshold of each value of an integer encoding: the 8-bit table by pixel value, the 16-bit one by
+   *         millimetres (65536 entries); null for float tables.
+   */
+  const float* valueTable() const
+  {
+    return encoding_ == Encoding::kMono8 ? table_.data() : (encoding_ == Encoding::kMono16 ? by_mm_.data() : nullptr);
+  }
   /** @return the raw table (for tests). */
   const std::vector<float>& table() const { return table_; }
 
@@ -67,6 +75,7 @@ private:
   std::vector<float> table_;
   std::vector<float> by_mm_;  // 16-bit: forDepth of each value
   float last_ = 0.0f;
+  Encoding encoding_ = Encoding::kFloat32;  // of the last build
 };
 
 }  // namespace kinect_pipeline

@@ -212,27 +212,63 @@ KP_CLONES void thresholdRow(const T* __restrict src, const ThresholdLut& lut, fl
 }
 
 /**
- * An 8-bit row whose pixels all have the same rise (no roll) has labels that depend on the value alone. Where they
- * are monotone in the value (kept, floor, below floor; or kept, above ceiling), two byte compares per pixel
- * classify the row: value v < 255 is kept below t1, labelled l1 from t1 and l1 + l2 from t2 (255: no such value).
+ * An 8- or 16-bit row whose pixels all have the same rise (no roll) has labels that depend on the value alone.
+ * Where they are monotone in the value (kept, floor, below floor; or kept, above ceiling), two integer compares
+ * per pixel classify the row: a value v below the no-return value is kept below t1, labelled l1 from t1 and
+ * l1 + l2 from t2 (the no-return value: no such value).
  */
 struct ValueSplit
 {
-  int t1 = 255, t2 = 255;
+  int t1 = 0, t2 = 0;
   std::uint8_t l1 = 0, l2 = 0;
 };
 
-// Smallest and largest value other than 255 of an 8-bit row (lo > hi if there is none).
-KP_CLONES void valueRange(const std::uint8_t* __restrict src, int w, int& lo, int& hi)
+// Smallest and largest value other than no-return (the largest value) of a row (lo > hi if there is none).
+template <typename T>
+KP_CLONES void valueRange(const T* __restrict src, int w, int& lo, int& hi)
 {
-  std::uint8_t mn = 255, mx = 0;
+  T mn = DepthTraits<T>::kNoReturn, mx = 0;
   for (int u = 0; u < w; ++u)
   {
     mn = std::min(mn, src[u]);
-    mx = std::max(mx, static_cast<std::uint8_t>(src[u] + 1));  // 255 wraps to 0
+    mx = std::max(mx, static_cast<T>(src[u] + 1));  // no-return wraps to 0
   }
   lo = mn;
-  hi = mx - 1;
+  hi = static_cast<int>(mx) - 1;
+}
+
+/**
+ * The table's terms of ValueProof over the values 0 .. no-return - 1, with d = fl(v scale) as the pixels get it.
+ * @param table the threshold of each value (ThresholdLut::valueTable)
+ */
+template <typename T>
+detail::ValueTerms valueTerms(const float* table, float scale)
+{
+  constexpr int last = DepthTraits<T>::kNoReturn - 1;
+  constexpr int window = detail::ValueTerms::kValueWindow;
+  detail::ValueTerms t;
+  t.nondecreasing = true;
+  std::vector<double> g(last + 1);  // d - t of each value
+  for (int v = 0; v <= last; ++v)
+  {
+    g[v] = static_cast<double>(static_cast<float>(v) * scale) - table[v];
+    if (v > 0)
+      t.nondecreasing = t.nondecreasing && table[v] >= table[v - 1];
+  }
+  t.gap_min = std::numeric_limits<double>::infinity();
+  for (int v = 0; v < last; ++v)
+    t.gap_min = std::min(t.gap_min, g[v + 1] - g[v]);
+  // From the top: suffix minimum of g, against each value window below it.
+  t.gap_window = std::numeric_limits<double>::infinity();
+  double suffix = std::numeric_limits<double>::infinity();
+  for (int v = last; v >= window; --v)
+  {
+    suffix = std::min(suffix, g[v]);
+    t.gap_window = std::min(t.gap_window, suffix - g[v - window]);
+  }
+  t.d_max = static_cast<float>(last) * scale;
+  t.t_max = table[last];
+  return t;
 }
 
 /**
@@ -245,50 +281,58 @@ KP_CLONES void valueRange(const std::uint8_t* __restrict src, int w, int& lo, in
  *   eta = u (2.01 |d R| + floor_h + |t R|); if d - t grows by at least gap_min from one value to the next,
  *   G falls by gap_min |R| and the test is monotone when gap_min |R| >= 2 eta; and it is never true when
  *   floor_h - d_max |R| > eta.
+ * A 16-bit table in 1 cm cells steps up at each cell border, by more than a value's 1 mm where t(d) grows by more
+ * than 1 mm per cm (the default curve beyond 6 m): d - t then dips by a little at each border. It still grows by
+ * gap_window from any value to every value kValueWindow above it, so when gap_window |R| >= 2 eta the test
+ * can only change more than once within kValueWindow values of where the search found it changing (windowed):
+ * the values there are labelled one by one, and if any disagrees the row is labelled as when not monotone.
  */
+enum class Monotone
+{
+  kNo,
+  kYes,
+  kWindowed,
+};
+
 struct ValueProof
 {
   bool ok = false;  // table non-decreasing, ceil_h >= 0, floor_h > 0
-  double gap_min = 0.0, d_max = 0.0, t_max = 0.0, floor_h = 0.0;
+  detail::ValueTerms table;
+  double floor_h = 0.0;
 
-  void build(const float* table, float scale, float floor_h_, float ceil_h)
+  void build(const detail::ValueTerms& terms, float floor_h_, float ceil_h)
   {
-    ok = ceil_h >= 0.0f && floor_h_ > 0.0f;
-    gap_min = std::numeric_limits<double>::infinity();
+    table = terms;
+    ok = terms.nondecreasing && ceil_h >= 0.0f && floor_h_ > 0.0f;
     floor_h = floor_h_;
-    for (int v = 0; v < 254; ++v)
-    {
-      ok = ok && table[v + 1] >= table[v];
-      const double d0 = static_cast<float>(v) * scale, d1 = static_cast<float>(v + 1) * scale;
-      gap_min = std::min(gap_min, (d1 - table[v + 1]) - (d0 - table[v]));
-    }
-    d_max = static_cast<float>(254) * scale;
-    t_max = table[254];
   }
-  bool monotone(float rise) const
+  Monotone monotone(float rise) const
   {
     if (!ok)
-      return false;
+      return Monotone::kNo;
     if (!(rise < 0.0f))
-      return true;  // kept, then above ceiling
+      return Monotone::kYes;  // kept, then above ceiling
     const double r = -static_cast<double>(rise), u = 1.0 / 16777216.0;
-    const double eta = 1.01 * u * (2.01 * d_max * r + floor_h + t_max * r);
-    return gap_min * r >= 2.0 * eta || floor_h - d_max * r > eta;
+    const double eta = 1.01 * u * (2.01 * table.d_max * r + floor_h + table.t_max * r);
+    if (table.gap_min * r >= 2.0 * eta || floor_h - table.d_max * r > eta)
+      return Monotone::kYes;
+    return table.gap_window * r >= 2.0 * eta ? Monotone::kWindowed : Monotone::kNo;
   }
 };
 
 /** Labels single values with classifyPixel, as classifyRow labels pixels: the same labels, bit for bit. */
+template <typename T>
 struct ValueLabeler
 {
-  const std::uint8_t* values;  // 0, 1, ..., 255
-  const float *table, *colc;   // the 8-bit threshold table; 256 copies of the column term
+  const std::uint8_t* values;  // 8-bit: 0, 1, ..., 255 (labelled all at once when not monotone); 16-bit: unused
+  const float *table, *colc;   // the threshold of each value (ThresholdLut::valueTable); 256 copies of the column term
   float rise_row, scale, floor_h, ceil_h;
 
   std::uint8_t operator()(int v) const
   {
     float d;
     bool keep, below;
-    return classifyPixel(values[v], table[v], colc[0] + rise_row, scale, floor_h, ceil_h, d, keep, below);
+    return classifyPixel(static_cast<T>(v), table[v], colc[0] + rise_row, scale, floor_h, ceil_h, d, keep, below);
   }
 };
 
@@ -336,93 +380,159 @@ int firstTrue(const Pred& pred, int lo, int hi, int guess)
 }
 
 /**
- * The value thresholds of a row with values lo..hi (< 255), searched near last row's (guess) if the labels are
- * provably monotone, else from every value's label. @return false if they are not monotone at all.
+ * Where a row's labels are expected to change, as a starting point for the search (any start gives the same
+ * thresholds): the floor band starts where d + t(d) reaches the depth D = floor_h / -R at which the row's rays
+ * meet the floor and ends where d - t(d) does (t taken at the first guess); the ceiling plane is at ceil_h / R.
  */
-bool splitValues(const ValueLabeler& label, const ValueProof& proof, int lo, int hi, ValueSplit& guess,
-                 std::uint8_t* lab, std::uint8_t* dst, ValueSplit& out)
+template <typename T>
+void predictSplit(const ValueLabeler<T>& label, int lo, int hi, int& g1, int& g2)
 {
-  out = ValueSplit();
+  const double rise = static_cast<double>(label.colc[0] + label.rise_row), scale = label.scale;
+  const auto value = [&](double x) { return !(x >= lo) ? lo : (x > hi ? hi : static_cast<int>(x)); };  // NaN: lo
+  if (rise < 0.0)
+  {
+    const double floor_at = label.floor_h / -rise / scale;  // [values]
+    const double t = label.table[value(floor_at)] / scale;
+    g1 = value(floor_at - label.table[value(floor_at - t)] / scale);
+    g2 = value(floor_at + label.table[value(floor_at + t)] / scale);
+  }
+  else
+  {
+    g1 = rise > 0.0 ? value(label.ceil_h / rise / scale) : hi;
+    g2 = hi;
+  }
+}
+
+/**
+ * Monotone::kWindowed: where the below-floor test changes (t2, or t1 if the first removed value is below the floor;
+ * hi + 1 if it never does), whether each value of the window either side has the label the split gives it.
+ */
+template <typename T>
+bool windowAgrees(const ValueLabeler<T>& label, const ValueSplit& split, int hi)
+{
+  int c;
+  if (split.l1 == kBelowFloor)
+    c = split.t1;
+  else if (split.l1 == kFloor)
+    c = std::min(split.t2, hi + 1);
+  else
+    return true;  // kept, then above ceiling
+  const int w = detail::ValueTerms::kValueWindow;
+  for (int v = std::max(split.t1, c - w); v <= std::min(hi, c + w - 1); ++v)
+  {
+    const int expect = v < split.t2 ? split.l1 : split.l1 + split.l2;
+    if (label(v) != expect)
+      return false;
+  }
+  return true;
+}
+
+/**
+ * The value thresholds of a row with values lo..hi (< no-return), searched from where the planes predict them if
+ * the labels are provably monotone, else (8-bit) from every value's label. @return false if they are not monotone at all,
+ * or (16-bit) not provably so.
+ */
+template <typename T>
+bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, int hi, std::uint8_t* lab,
+                 std::uint8_t* dst, ValueSplit& out)
+{
+  out = ValueSplit{DepthTraits<T>::kNoReturn, DepthTraits<T>::kNoReturn, 0, 0};
   if (lo > hi)
     return true;
-  if (proof.monotone(label.rise_row))
+  const Monotone monotone = proof.monotone(label.rise_row);
+  if (monotone != Monotone::kNo)
   {
-    const int t1 = firstTrue([&](int v) { return label(v) != kKept; }, lo, hi, guess.t1);
+    int g1, g2;
+    predictSplit(label, lo, hi, g1, g2);
+    const int t1 = firstTrue([&](int v) { return label(v) != kKept; }, lo, hi, g1);
     if (t1 <= hi)
     {
       out.t1 = t1;
       out.l1 = label(t1);
-      guess.t1 = t1;
       if (out.l1 == kFloor)
       {
-        const int t2 = firstTrue([&](int v) { return label(v) == kBelowFloor; }, t1, hi, guess.t2);
+        const int t2 = firstTrue([&](int v) { return label(v) == kBelowFloor; }, t1, hi, g2);
         if (t2 <= hi)
         {
           out.t2 = t2;
           out.l2 = kBelowFloor - kFloor;
-          guess.t2 = t2;
         }
       }
     }
-    return true;
+    if (monotone == Monotone::kYes || windowAgrees(label, out, hi))
+      return true;
+    out = ValueSplit{DepthTraits<T>::kNoReturn, DepthTraits<T>::kNoReturn, 0, 0};
   }
-  const int n = hi - lo + 1;
-  classifyRow<std::uint8_t, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
-                                   label.scale, label.floor_h, label.ceil_h, n, lab, dst, nullptr);
-  int i = 0;
-  while (i < n && lab[i] == kKept)
-    ++i;
-  if (i == n)
-    return true;
-  out.t1 = lo + i;
-  out.l1 = lab[i];
-  while (i < n && lab[i] == out.l1)
-    ++i;
-  if (i == n)
-    return true;
-  const std::uint8_t l = lab[i];
-  if (l < out.l1)
-    return false;
-  out.t2 = lo + i;
-  out.l2 = static_cast<std::uint8_t>(l - out.l1);
-  while (i < n && lab[i] == l)
-    ++i;
-  return i == n;
+  if constexpr (!std::is_same_v<T, std::uint8_t>)
+  {
+    return false;  // 65535 values: the row is labelled pixel by pixel
+  }
+  else
+  {
+    const int n = hi - lo + 1;
+    classifyRow<std::uint8_t, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
+                                     label.scale, label.floor_h, label.ceil_h, n, lab, dst, nullptr);
+    int i = 0;
+    while (i < n && lab[i] == kKept)
+      ++i;
+    if (i == n)
+      return true;
+    out.t1 = lo + i;
+    out.l1 = lab[i];
+    while (i < n && lab[i] == out.l1)
+      ++i;
+    if (i == n)
+      return true;
+    const std::uint8_t l = lab[i];
+    if (l < out.l1)
+      return false;
+    out.t2 = lo + i;
+    out.l2 = static_cast<std::uint8_t>(l - out.l1);
+    while (i < n && lab[i] == l)
+      ++i;
+    return i == n;
+  }
 }
 
-// Labels, cleaned depth and counts of an 8-bit row from its value thresholds. Arithmetic on bytes only, with
-// byte counters per block of 128 pixels (a multiple of every vector width), so that it vectorises without a scalar tail.
-// With in (the raw row), also flags in cand the pixels the rescue may relabel: kept or below floor, moved nearer
-// by the opening, and whose raw value has the label floor or above ceiling (values rt1 <= v < rt2).
-KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
-                   std::uint8_t* __restrict dst, const std::uint8_t* __restrict in, std::uint8_t* __restrict cand)
+// Labels, cleaned depth and counts of an 8- or 16-bit row from its value thresholds. Integer arithmetic of the
+// pixel's width only, with counters of that width per block of 128 pixels (a multiple of every vector width), so
+// that it vectorises without a scalar tail. With in (the raw row), also flags in cand the pixels the rescue may
+// relabel: kept or below floor, moved nearer by the opening, and whose raw value has the label floor or above
+// ceiling (values rt1 <= v < rt2).
+template <typename T>
+KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
+                             T* __restrict dst, const T* __restrict in, std::uint8_t* __restrict cand)
 {
-  const std::uint8_t t1 = static_cast<std::uint8_t>(s.t1), t2 = static_cast<std::uint8_t>(s.t2), l1 = s.l1, l2 = s.l2;
-  // 255 is >= t1 and >= t2: its l1 + l2 becomes kInvalid.
-  const std::uint8_t fix = static_cast<std::uint8_t>(l1 + l2 - kInvalid);
-  const bool rescuable = s.t1 < 255 && (s.l1 == kFloor || s.l1 == kAboveCeiling);
-  const std::uint8_t rt1 = rescuable ? t1 : 255, rt2 = t2;
+  using Tr = DepthTraits<T>;
+  constexpr T none = Tr::kNoReturn;
+  const T t1 = static_cast<T>(s.t1), t2 = static_cast<T>(s.t2), l1 = s.l1, l2 = s.l2;
+  // The no-return value is >= t1 and >= t2: its l1 + l2 becomes kInvalid.
+  const T fix = static_cast<T>(l1 + l2 - kInvalid);
+  const bool rescuable = s.t1 < none && (s.l1 == kFloor || s.l1 == kAboveCeiling);
+  const T rt1 = rescuable ? t1 : none, rt2 = t2;
   int n1 = 0, n2 = 0, ni = 0, nc = 0;
   for (int u0 = 0; u0 < w; u0 += 128)
   {
     const int u1 = std::min(w, u0 + 128);
-    std::uint8_t c1 = 0, c2 = 0, ci = 0, cc = 0;
+    T c1 = 0, c2 = 0, ci = 0, cc = 0;
     if (in)
     {
       for (int u = u0; u < u1; ++u)
       {
-        const std::uint8_t v = src[u];
-        const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
-        const std::uint8_t l = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
-        lab[u] = l;
-        dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
+        const T v = src[u];
+        const T g1 = v >= t1, g2 = v >= t2, inv = v == none;
+        const T l = static_cast<T>(g1 * l1 + g2 * l2 - inv * fix);
+        lab[u] = static_cast<std::uint8_t>(l);
+        if constexpr (std::is_same_v<T, std::uint8_t>)
+          dst[u] = static_cast<T>(v | -g1);  // removed: 255
+        else
+          dst[u] = static_cast<T>(v & (g1 - 1));  // removed: 0
         c1 += g1;
         c2 += g2;
         ci += inv;
-        const std::uint8_t raw = in[u] < DepthTraits<std::uint8_t>::kMinValid ? 255 : in[u];
-        const std::uint8_t f = static_cast<std::uint8_t>(((l == kKept) | (l == kBelowFloor)) & (raw > v) &
-                                                         (raw >= rt1) & (raw < rt2));
-        cand[u] = f;
+        const T raw = Tr::map(in[u]);
+        const T f = static_cast<T>(((l == kKept) | (l == kBelowFloor)) & (raw > v) & (raw >= rt1) & (raw < rt2));
+        cand[u] = static_cast<std::uint8_t>(f);
         cc += f;
       }
     }
@@ -430,10 +540,13 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
     {
       for (int u = u0; u < u1; ++u)
       {
-        const std::uint8_t v = src[u];
-        const std::uint8_t g1 = v >= t1, g2 = v >= t2, inv = v == 255;
+        const T v = src[u];
+        const T g1 = v >= t1, g2 = v >= t2, inv = v == none;
         lab[u] = static_cast<std::uint8_t>(g1 * l1 + g2 * l2 - inv * fix);
-        dst[u] = static_cast<std::uint8_t>(v | -g1);  // removed: 255
+        if constexpr (std::is_same_v<T, std::uint8_t>)
+          dst[u] = static_cast<T>(v | -g1);
+        else
+          dst[u] = static_cast<T>(v & (g1 - 1));
         c1 += g1;
         c2 += g2;
         ci += inv;
@@ -447,7 +560,7 @@ KP_CLONES RowCounts splitRow(const std::uint8_t* __restrict src, int w, const Va
   RowCounts c;
   c.kept = w - n1;
   c.invalid = ni;
-  // n1 - n2 pixels have label l1; the 255s count in n1 and n2 alike.
+  // n1 - n2 pixels have label l1; the no-return values count in n1 and n2 alike.
   c.floor = s.l1 == kFloor ? n1 - n2 : 0;
   c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
   c.candidates = nc;
@@ -642,7 +755,6 @@ struct Pipeline::Scratch
   std::vector<std::int32_t> band_n;       // surface_band: their number per beam (+ padding)
   std::vector<std::uint8_t> vlab, vdst;  // labels of the 256 values (8-bit rows by value)
   std::vector<std::uint8_t> cand;        // pixels of an 8-bit row the rescue may relabel
-  ValueSplit guess;                      // the last row's value thresholds
   float cov_lo = 0.0f, cov_hi = 0.0f;  // ScanProjector::coverage over this thread's rows
   std::array<std::uint64_t, kNumLabels> counts{};
 };
@@ -765,6 +877,10 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
   {
     lut_.build(config_.threshold_curve, enc, config_.max_depth);
     lut_encoding_ = enc;
+    if (enc == Encoding::kMono8)
+      value_terms_ = valueTerms<std::uint8_t>(lut_.valueTable(), depthScale<std::uint8_t>(config_.max_depth));
+    else if (enc == Encoding::kMono16)
+      value_terms_ = valueTerms<std::uint16_t>(lut_.valueTable(), depthScale<std::uint16_t>(config_.max_depth));
     lut_valid_ = true;
   }
   out.depth.create(depth.size(), type);
@@ -928,18 +1044,19 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   const ThresholdLut& lut = lut_;
   const bool column = projector_.projection() == Projection::kColumn;
   const bool cliff = config_.cliff_scan || config_.cliff_in_scan;
-  // 8-bit frames without roll: classify each row by value thresholds (see ValueSplit).
+  // 8- and 16-bit frames without roll: classify each row by value thresholds (see ValueSplit).
+  constexpr bool kIntegerDepth = std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>;
   bool by_value = false;
   std::array<float, 256> colc;
   std::array<std::uint8_t, 256> values;
   ValueProof proof;
-  if constexpr (std::is_same_v<T, std::uint8_t>)
+  if constexpr (kIntegerDepth)
   {
     by_value = std::all_of(colterm.begin(), colterm.end(), [&](float c) { return c == colterm[0]; });
     colc.fill(colterm[0]);
     for (int v = 0; v < 256; ++v)
       values[v] = static_cast<std::uint8_t>(v);
-    proof.build(lut.table().data(), scale, floor_h, ceil_h);
+    proof.build(value_terms_, floor_h, ceil_h);
   }
   // The projector's row terms, for the coverage of this pose below.
   ScanGeometry geo{};
@@ -1026,21 +1143,21 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       std::uint8_t* lab = out.labels.ptr<std::uint8_t>(r);
       RowCounts c;
       bool done = false;
-      if constexpr (std::is_same_v<T, std::uint8_t>)
+      if constexpr (kIntegerDepth)
       {
         if (by_value)
         {
           int lo, hi;
-          valueRange(src, w, lo, hi);
-          // The rescue below looks at raw values, which may lie above the opened row's: split up to 254.
+          valueRange<T>(src, w, lo, hi);
+          // The rescue below looks at raw values, which may lie above the opened row's: split up to no-return - 1.
           if (rad > 0 && lo <= hi)
-            hi = 254;
+            hi = Tr::kNoReturn - 1;
           ValueSplit split;
-          const ValueLabeler label{values.data(), lut.table().data(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
-          if (splitValues(label, proof, lo, hi, s.guess, s.vlab.data(), s.vdst.data(), split))
+          const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
+          if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
           {
             std::uint8_t* cand = s.cand.data();
-            c = splitRow(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
+            c = splitRow<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
             if (c.candidates > 0)
               rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
                                dst, c);

@@ -76,6 +76,8 @@ void validateThresholdCurve(const std::vector<CurvePoint>& curve)
 void ThresholdLut::build(const std::vector<CurvePoint>& curve, Encoding encoding, double max_depth)
 {
   const double step = encodingStep(encoding, max_depth);
+  encoding_ = encoding;
+  by_mm_.clear();
   if (encoding == Encoding::kMono8)
   {
     table_.assign(256, 0.0f);
@@ -98,7 +100,6 @@ void ThresholdLut::build(const std::vector<CurvePoint>& curve, Encoding encoding
     table_[i] = static_cast<float>(std::max(t, step));
   }
   last_ = static_cast<float>(n - 1);
-  by_mm_.clear();
   if (encoding == Encoding::kMono16)
   {
     by_mm_.resize(65536);

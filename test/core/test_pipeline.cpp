@@ -2,9 +2,11 @@
 // intersection in double precision, the threshold curve evaluated per pixel, std::atan2 per pixel edge.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cfloat>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
 
@@ -370,6 +372,87 @@ TEST(PipelineEdge, OneRowWallLeavesNoBinEmptyAtAnySubPixelShift)
       ASSERT_TRUE(std::isfinite(r[k])) << "cx " << cx << ": bin " << k << " empty between bins " << first << " and "
                                        << last << " of a wall";
   }
+}
+
+// 16-bit rows without roll are labelled by value thresholds that a search finds (float rows pixel by pixel). A
+// float frame holding each 16-bit value's depth as the pipeline computes it, fl(v * 0.001f), has the same depths
+// and thresholds (the 16-bit table is the centimetre table at those depths), so labels, cleaned depths and ranges
+// must agree exactly. Rows hold every value around their floor band's two edges and around the ceiling plane,
+// where the search looks, at several poses and curves: the default one, whose table steps up by more than 1 mm per
+// 1 cm cell beyond 6 m (depth - threshold dips there), a steeper one, and one too steep for the search.
+TEST(PipelineEdge, SixteenBitLabelsEqualFloatLabelsOfTheSameDepths)
+{
+  const Camera cam = kinect();
+  const std::vector<std::string> curves = {"", "0.5:0.02, 12:3.0", "0.5:0.02, 6:0.05, 7:0.6, 12:0.7"};
+  for (const std::string& curve : curves)
+    for (const double pitch : {0.26, 0.05, 0.6})
+      for (const int kernel : {0, 3})
+      {
+        Config cfg;
+        cfg.sensor_height = 1.1;
+        cfg.sensor_pitch = pitch;
+        cfg.open_kernel_size = kernel;
+        cfg.num_threads = 1;
+        if (!curve.empty())
+          cfg.threshold_curve = parseThresholdCurve(curve);
+        cv::Mat mm(cam.height, cam.width, CV_16UC1);
+        for (int r = 0; r < cam.height; ++r)
+        {
+          const double zf = kp_test::planeDepth(cam, cam.width / 2, r, cfg.sensor_height, pitch, 0.0, 0.0);
+          const double zc = kp_test::planeDepth(cam, cam.width / 2, r, cfg.sensor_height, pitch, 0.0, cfg.ceiling_height);
+          // Three sweeps of 170 consecutive values: d - t(d) and d + t(d) at the floor, or the ceiling plane.
+          double centre[3];
+          if (std::isfinite(zf) && zf < 60.0)
+          {
+            const double t = kp_test::slowCurve(cfg.threshold_curve, zf);
+            centre[0] = zf - t;
+            centre[1] = zf + t;
+            centre[2] = zf;
+          }
+          else
+          {
+            centre[0] = centre[1] = centre[2] = std::isfinite(zc) && zc < 60.0 ? zc : 3.0 + r * 0.01;
+          }
+          for (int u = 0; u < cam.width; ++u)
+          {
+            const int sweep = std::min(2, u / 170), i = u - 170 * sweep;
+            const long v = std::lround(centre[sweep] * 1000.0) - 85 + i;
+            mm.at<std::uint16_t>(r, u) = (u * 7 + r) % 97 == 0 ? 0 : static_cast<std::uint16_t>(std::clamp(v, 1L, 65534L));
+          }
+        }
+        cv::Mat metres(mm.size(), CV_32FC1);
+        for (int r = 0; r < mm.rows; ++r)
+          for (int u = 0; u < mm.cols; ++u)
+          {
+            const std::uint16_t v = mm.at<std::uint16_t>(r, u);
+            metres.at<float>(r, u) = v == 0 ? 0.0f : static_cast<float>(v) * 0.001f;
+          }
+        Pipeline p16(cam, cfg), p32(cam, cfg);
+        FrameResult a, b;
+        p16.process(mm, 0.0, 0.0, a);
+        p32.process(metres, 0.0, 0.0, b);
+        SCOPED_TRACE("curve '" + curve + "' pitch " + std::to_string(pitch) + " kernel " + std::to_string(kernel));
+        int bad = 0;
+        for (int r = 0; r < cam.height; ++r)
+          for (int u = 0; u < cam.width; ++u)
+          {
+            const int la = a.labels.at<std::uint8_t>(r, u), lb = b.labels.at<std::uint8_t>(r, u);
+            const std::uint16_t da = a.depth.at<std::uint16_t>(r, u);
+            const float db = b.depth.at<float>(r, u);
+            const bool same_depth = da == 0 ? std::isnan(db) : static_cast<float>(da) * 0.001f == db;
+            if ((la != lb || !same_depth) && ++bad <= 3)
+              ADD_FAILURE() << "pixel (" << u << ", " << r << ") value " << mm.at<std::uint16_t>(r, u)
+                            << ": 16-bit label " << la << ", float label " << lb << "; depths " << da << " / " << db;
+          }
+        EXPECT_EQ(bad, 0);
+        EXPECT_EQ(a.counts, b.counts);
+        ASSERT_EQ(a.scan.ranges.size(), b.scan.ranges.size());
+        for (std::size_t k = 0; k < a.scan.ranges.size(); ++k)
+        {
+          const float x = a.scan.ranges[k], y = b.scan.ranges[k];
+          EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << "beam " << k << ": " << x << " vs " << y;
+        }
+      }
 }
 
 TEST(PipelineEdge, NoFloorInViewRemovesNoFloor)
