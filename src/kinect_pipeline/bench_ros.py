@@ -98,9 +98,28 @@ def _stop(proc: subprocess.Popen[Any]) -> None:
             proc.wait(timeout=5)
 
 
+@dataclass
+class _Subject:
+    name: str
+    cmd: list[str]
+    ns: str  # its input: NS/sd/image_depth and NS/sd/camera_info
+    topic: str  # its output
+    msg_type: Any
+    image_pub: Any = None
+    info_pub: Any = None
+    proc: subprocess.Popen[Any] | None = None
+    pids: list[int] | None = None
+
+
 def run(frames: int = 300, rate: float = 30.0, threads: int = 1, only: str | None = None) -> list[Measurement]:
-    """Runs relay, node and nodelet one after the other with the same frames and returns their numbers.
-    ``threads`` is the pipeline's num_threads (0: OpenMP's default)."""
+    """Runs relay, node and nodelet side by side with the same frames and returns their numbers.
+
+    Each subject has its own input topics, and frame i goes to subject i mod n at n * ``rate`` frames per second:
+    each gets ``rate`` frames per second, and all of them meet the machine's hiccups of the same minutes (run one
+    after the other on a shared machine, their tails were minutes apart and differed by more than the node adds).
+    ``threads`` is the pipeline's num_threads (0: OpenMP's default); ``only`` ("relay", "node" or "nodelet") runs
+    that one.
+    """
     port = _free_port()
     work = Path(tempfile.mkdtemp(prefix="kp-bench-ros-"))
     env = dict(os.environ, ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1", ROS_HOME=str(work))
@@ -113,6 +132,7 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 1, only: str | Non
         start_new_session=True,
     )
     results: list[Measurement] = []
+    subjects: list[_Subject] = []
     try:
         import rosgraph
         import rospy
@@ -136,120 +156,126 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 1, only: str | Non
         img.header.frame_id = "kinect2_depth_optical_frame"
         info = CameraInfo(width=cam.width, height=cam.height, K=[cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1])
         info.header.frame_id = img.header.frame_id
-        image_pub = rospy.Publisher("/kinect2/sd/image_depth", Image, queue_size=5)
-        info_pub = rospy.Publisher("/kinect2/sd/camera_info", CameraInfo, queue_size=5)
 
         params = work / "params.yaml"
         params.write_text(f"num_threads: {threads}\n")
-        subjects = [
-            (
+        launch = ["pose_source:=static", "sensor_pitch:=0.26", f"params:={params}"]
+        relay = ["rosrun", "image_transport", "republish", "raw", "in:=/relay_in/sd/image_depth", "raw"]
+        relay.append("out:=/relay/image")
+        candidates = [
+            _Subject(
                 "image_transport relay",
-                [
-                    "rosrun",
-                    "image_transport",
-                    "republish",
-                    "raw",
-                    "in:=/kinect2/sd/image_depth",
-                    "raw",
-                    "out:=/relay/image",
-                ],
+                relay,
+                "/relay_in",
                 "/relay/image",
                 Image,
             ),
-            (
+            _Subject(
                 "kinect_pipeline node",
-                [
-                    "roslaunch",
-                    "kinect_pipeline",
-                    "kinect_pipeline.launch",
-                    "pose_source:=static",
-                    "sensor_pitch:=0.26",
-                    f"params:={params}",
-                ],
-                "/kinect2/scan",
+                ["roslaunch", "kinect_pipeline", "kinect_pipeline.launch", "camera:=bench_node", *launch],
+                "/bench_node",
+                "/bench_node/scan",
                 LaserScan,
             ),
-            (
+            _Subject(
                 "kinect_pipeline nodelet",
-                ["roslaunch", "kinect_pipeline", "bench_nodelet.launch", f"params:={params}"],
-                "/kinect2/scan",
+                ["roslaunch", "kinect_pipeline", "bench_nodelet.launch", "camera:=bench_nodelet", f"params:={params}"],
+                "/bench_nodelet",
+                "/bench_nodelet/scan",
                 LaserScan,
             ),
         ]
-        for name, cmd, topic, msg_type in subjects:
-            if only is not None and not name.endswith(" " + only):
-                continue
-            lat: list[float] = []
-            lock = threading.Lock()
+        subjects = [c for c in candidates if only is None or c.name.endswith(" " + only)]
+        n = len(subjects)
+        lock = threading.Lock()
+        lat: dict[str, list[float]] = {c.name: [] for c in subjects}
+        counters: dict[str, dict[str, int]] = {c.name: {} for c in subjects}
+        subs = []
+        for c in subjects:
+            c.image_pub = rospy.Publisher(f"{c.ns}/sd/image_depth", Image, queue_size=5)
+            c.info_pub = rospy.Publisher(f"{c.ns}/sd/camera_info", CameraInfo, queue_size=5)
 
-            def on_msg(m: Any, lat: list[float] = lat, lock: threading.Lock = lock) -> None:
+            def on_msg(m: Any, out: list[float] = lat[c.name]) -> None:
                 now = rospy.get_rostime()
                 with lock:
-                    lat.append((now - m.header.stamp).to_sec() * 1e3)
+                    out.append((now - m.header.stamp).to_sec() * 1e3)
 
-            sub = rospy.Subscriber(topic, msg_type, on_msg, queue_size=100, tcp_nodelay=True)
-            counters: dict[str, int] = {}
+            subs.append(rospy.Subscriber(c.topic, c.msg_type, on_msg, queue_size=100, tcp_nodelay=True))
 
-            def on_diag(m: Any, counters: dict[str, int] = counters, lock: threading.Lock = lock) -> None:
-                with lock:
-                    for st in m.status:
+        def on_diag(m: Any) -> None:
+            with lock:
+                for st in m.status:
+                    for c in subjects:
+                        if not st.hardware_id.startswith(c.ns + "/"):
+                            continue
                         for kv in st.values:
                             if kv.key.startswith("dropped: ") or kv.key in _NODE_COUNTERS:
-                                counters[kv.key] = int(kv.value)
+                                counters[c.name][kv.key] = int(kv.value)
 
-            diag_sub = rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=10)
-            proc = subprocess.Popen(
-                cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        subs.append(rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=10))
+        for c in subjects:
+            c.proc = subprocess.Popen(
+                c.cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
             )
-            try:
-                # Warm up until output flows (deadline), then measure.
-                deadline = time.monotonic() + 60
-                period = 1.0 / rate
-                while time.monotonic() < deadline:
-                    stamp = rospy.get_rostime()
-                    img.header.stamp = info.header.stamp = stamp
-                    info_pub.publish(info)
-                    image_pub.publish(img)
-                    time.sleep(period)
-                    with lock:
-                        if len(lat) >= 10:
-                            break
-                time.sleep(0.5)
-                pids = _descendants(proc.pid)
-                with lock:
-                    lat.clear()
-                cpu0, t0 = _cpu_seconds(pids), time.monotonic()
-                rss0 = _rss_mb(pids)
-                next_t = time.monotonic()
-                trace = [rss0]
-                next_sample = next_t + 60.0
-                for _ in range(frames):
-                    stamp = rospy.get_rostime()
-                    img.header.stamp = info.header.stamp = stamp
-                    info_pub.publish(info)
-                    image_pub.publish(img)
-                    next_t += period
-                    if next_t >= next_sample:
-                        trace.append(_rss_mb(pids))
-                        next_sample += 60.0
-                    time.sleep(max(0.0, next_t - time.monotonic()))
-                end = time.monotonic() + 2.0
-                while time.monotonic() < end:
-                    with lock:
-                        if len(lat) >= frames:
-                            break
-                    time.sleep(0.01)
-                cpu = (_cpu_seconds(pids) - cpu0) / (time.monotonic() - t0) * 100.0
-                rss1 = _rss_mb(pids)
-                with lock:
-                    m = Measurement(name, frames, len(lat), np.array(lat), cpu, rss0, rss1, [*trace, rss1])
-                    m.node_counters = dict(counters) if counters else None
-                    results.append(m)
-            finally:
-                sub.unregister()
-                diag_sub.unregister()
-                _stop(proc)
+
+        def send(c: _Subject) -> None:
+            stamp = rospy.get_rostime()
+            img.header.stamp = info.header.stamp = stamp
+            c.info_pub.publish(info)
+            c.image_pub.publish(img)
+
+        period = 1.0 / (rate * n)
+        # Warm up until every subject's output flows (deadline), then measure.
+        deadline = time.monotonic() + 90
+        i = 0
+        while time.monotonic() < deadline:
+            send(subjects[i % n])
+            i += 1
+            time.sleep(period)
+            with lock:
+                if all(len(v) >= 10 for v in lat.values()):
+                    break
+        time.sleep(0.5)
+        for c in subjects:
+            assert c.proc is not None
+            c.pids = _descendants(c.proc.pid)
+        with lock:
+            for v in lat.values():
+                v.clear()
+        cpu0 = {c.name: _cpu_seconds(c.pids or []) for c in subjects}
+        rss0 = {c.name: _rss_mb(c.pids or []) for c in subjects}
+        trace = {name: [v] for name, v in rss0.items()}
+        t0 = next_t = time.monotonic()
+        next_sample = next_t + 60.0
+        for i in range(frames * n):
+            send(subjects[i % n])
+            next_t += period
+            if next_t >= next_sample:
+                for c in subjects:
+                    trace[c.name].append(_rss_mb(c.pids or []))
+                next_sample += 60.0
+            time.sleep(max(0.0, next_t - time.monotonic()))
+        end = time.monotonic() + 2.0
+        while time.monotonic() < end:
+            with lock:
+                if all(len(v) >= frames for v in lat.values()):
+                    break
+            time.sleep(0.01)
+        elapsed = time.monotonic() - t0
+        for c in subjects:
+            cpu = (_cpu_seconds(c.pids or []) - cpu0[c.name]) / elapsed * 100.0
+            rss1 = _rss_mb(c.pids or [])
+            with lock:
+                m = Measurement(c.name, frames, len(lat[c.name]), np.array(lat[c.name]), cpu, rss0[c.name], rss1)
+                m.rss_trace_mb = [*trace[c.name], rss1]
+                m.node_counters = dict(counters[c.name]) or None
+            results.append(m)
+        for sub in subs:
+            sub.unregister()
     finally:
+        for c in subjects:
+            if c.proc is not None:
+                _stop(c.proc)
         _stop(core)
     return results
 

@@ -281,10 +281,14 @@ def cmd_curve(args: argparse.Namespace) -> int:
 def cmd_bench_ros(args: argparse.Namespace) -> int:
     from .bench_ros import report, run
 
-    results = run(frames=args.frames, rate=args.rate, threads=args.threads)
+    if args.sequential:
+        results = [m for s in ("relay", "node", "nodelet") for m in run(args.frames, args.rate, args.threads, s)]
+    else:
+        results = run(frames=args.frames, rate=args.rate, threads=args.threads)
     print(
         f"image -> output latency at {args.rate:g} Hz, 512x424 16UC1, {args.frames} frames each, "
-        f"num_threads {args.threads}, same run:"
+        f"num_threads {args.threads}, same run, "
+        + ("one subject after the other:" if args.sequential else "interleaved:")
     )
     print(report(results))
     return 0
@@ -522,6 +526,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=1,
         help="the pipeline's num_threads (default 1, as the node's; 0: OpenMP default)",
+    )
+    r.add_argument(
+        "--sequential",
+        action="store_true",
+        help="run the subjects one after the other instead of interleaving their frames",
     )
     r.set_defaults(func=cmd_bench_ros)
 
