@@ -140,7 +140,7 @@ private:
   struct SpanBuffers;
   Scratch& teamScratch(int& team);
   template <typename Acc>
-  void binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf, const Acc& acc) const;
+  void binSpan(int r, int a, int b, const SpanBuffers& buf, const Acc& acc) const;
   template <typename T>
   void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
   void prepareBuffers(int threads);

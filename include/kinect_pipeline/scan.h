@@ -48,7 +48,18 @@ inline float fastAtan2(float y, float x)
 }
 
 /**
- * Maps pixels to beams: a pixel goes to the bin of its centre's bearing (centreBins()); the pipeline gives the
+ * The bin of a fractional bin position f: its exact floor (the gap fill splits at exact borders too), clamped to
+ * the padding slots -1 and beams; NaN goes to -1. Branch-free, so that the loops calling it vectorise.
+ */
+__attribute__((always_inline)) inline std::int32_t binKey(float f, float beams)
+{
+  f = !(f >= -1.0f) ? -1.0f : (f > beams ? beams : f);
+  const std::int32_t t = static_cast<std::int32_t>(f);  // towards zero
+  return t - (f < static_cast<float>(t));
+}
+
+/**
+ * Maps pixels to beams: a pixel goes to the bin of its centre's bearing (spanBins()); the pipeline gives the
  * bins between two neighbouring centres of a row to the nearer one, so the binning leaves no bin empty that a
  * surface covers, whatever the pitch. The column edges' bearings (rowEdgeBins()) bound what the image sees.
  *
@@ -99,10 +110,13 @@ private:
 
   /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
   void edgeBins(int r, int e0, int e1, float* out) const;
-  /** @brief Fractional bin positions of the centres of pixels u0..u1 of row r (into out[u0..u1]). */
-  void centreBins(int r, int u0, int u1, float* out) const;
   /** @brief range[u] = depth[u] * rangeFactor(u, r) for u in [u0, u1] only (+Inf depth stays +Inf). */
   void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
+  /**
+   * @brief For pixels u0..u1 of row r: fb = fractional bin positions of their centres, key = their bins
+   *        (binKey), range = as spanRanges(); in one pass.
+   */
+  void spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key, float* range) const;
 
   Projection projection_ = Projection::kHorizontal;
   int width_ = 0, height_ = 0, beams_ = 0;

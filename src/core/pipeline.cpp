@@ -644,19 +644,6 @@ KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restr
  * that a surface covers. Pixels whose neighbour lies half a turn away (straddling the direction behind) are not
  * used to fill. With kCount, counts[k] also counts the finite ranges that went into bin k.
  */
-KP_CLONES void binIndices(const float* __restrict fc, int a, int b, float beams, std::int32_t* __restrict key)
-{
-  // floor(), clamped to the padding slots -1 and beams (NaN to -1): vectorises, no branches. It must be the exact
-  // floor, the one binGap takes: a key rounded up (as adding 1024 did) left the bin below it empty in that row.
-  for (int u = a; u <= b; ++u)
-  {
-    float f = fc[u];
-    f = !(f >= -1.0f) ? -1.0f : (f > beams ? beams : f);  // NaN goes to the padding slot too
-    const std::int32_t t = static_cast<std::int32_t>(f);    // towards zero
-    key[u] = t - (f < static_cast<float>(t));
-  }
-}
-
 // What binCentres does with a range v that goes into bin k (k may be a padding slot, -1 or beams).
 struct MinInto  // the nearest range per bin
 {
@@ -711,11 +698,11 @@ inline void binGap(int u, const float* fc, const float* range, int beams, float 
     acc(k, (k + 0.5f) < mid ? r_lo : r_hi);
 }
 
+// key: the bins of the centres (ScanProjector::spanBins).
 template <typename Acc>
 void binCentres(const float* fc, const float* range, int a, int b, int beams, float half_turn_bins,
-                std::int32_t* key, std::uint8_t* flag, const Acc& acc)
+                const std::int32_t* key, std::uint8_t* flag, const Acc& acc)
 {
-  binIndices(fc, a, b, static_cast<float>(beams), key);
   gapFlags(key, a, b, flag);
   for (int u = a; u <= b; ++u)
     acc(key[u], range[u]);  // bins[-1] and bins[beams] take what lies outside the scan
@@ -932,11 +919,10 @@ struct Pipeline::SpanBuffers
 /**
  * Bins the span a..b of row r, whose depths the caller put in buf.z[a..b] (+Inf where nothing is seen), into acc.
  * One pixel either side goes in as +Inf too: a gap between the span's end and its neighbour is split between
- * them. buf.fb gets the bin positions of the pixel centres, unless same_fb says it holds them already (the
- * column projection's, the same for every row).
+ * them.
  */
 template <typename Acc>
-void Pipeline::binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf, const Acc& acc) const
+void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Acc& acc) const
 {
   const int w = camera_.width;
   const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
@@ -944,9 +930,7 @@ void Pipeline::binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf
     buf.z[u] = kInf;
   for (int u = b + 1; u <= b1; ++u)
     buf.z[u] = kInf;
-  if (!same_fb)
-    projector_.centreBins(r, a1, b1, buf.fb);
-  projector_.spanRanges(r, a1, b1, buf.z, buf.range);
+  projector_.spanBins(r, a1, b1, buf.z, buf.fb, buf.key, buf.range);
   binCentres(buf.fb, buf.range, a1, b1, projector_.beams(), 3.14159265f / projector_.angleIncrement(), buf.key,
              buf.gaps, acc);
 }
@@ -954,7 +938,7 @@ void Pipeline::binSpan(int r, int a, int b, bool same_fb, const SpanBuffers& buf
 template <typename T>
 void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
 {
-  const int w = camera_.width, h = camera_.height, beams = projector_.beams();
+  const int h = camera_.height, beams = projector_.beams();
   std::vector<float>& ranges = out.scan.ranges;
   band_limit_.assign(beams + 2, -1.0f);  // padding slots: nothing is ever within
   for (int k = 0; k < beams; ++k)
@@ -964,7 +948,6 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
       band_limit_[k + 1] = static_cast<float>(m + config_.surface_band * evaluateCurve(config_.threshold_curve, m));
   }
   const float scale = depthScale<T>(config_.max_depth);
-  const bool column = projector_.projection() == Projection::kColumn;
   int team = 1;
 #pragma omp parallel num_threads(threads)
   {
@@ -973,8 +956,6 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
     std::fill(s.band_n.begin(), s.band_n.end(), 0);
     const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
     const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data()};
-    if (column)
-      projector_.centreBins(0, 0, w - 1, buf.fb);  // the same for every row
 #pragma omp for schedule(dynamic, 8)
     for (int r = 0; r < h; ++r)
     {
@@ -982,7 +963,7 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
       if (a > b)
         continue;
       keptRawDepth<T>(depth.ptr<T>(r), out.labels.ptr<std::uint8_t>(r), a, b, scale, buf.z);
-      binSpan(r, a, b, column, buf, acc);
+      binSpan(r, a, b, buf, acc);
     }
   }
   for (int k = 0; k < beams; ++k)
@@ -1195,7 +1176,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           --b;
         for (int u = a; u <= b; ++u)
           z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
-        binSpan(r, a, b, false, buf, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
+        binSpan(r, a, b, buf, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
@@ -1218,8 +1199,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     if (column)
     {
       // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
-      projector_.centreBins(0, 0, w - 1, fb);
-      projector_.spanRanges(0, 0, w - 1, s.colmin.data(), range);
+      projector_.spanBins(0, 0, w - 1, s.colmin.data(), fb, s.key.data(), range);
       binCentres(fb, range, 0, w - 1, beams, half_turn_bins, s.key.data(), s.gaps.data(), MinInto{bins});
     }
     else
@@ -1231,7 +1211,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         if (a > b)
           continue;
         keptDepth<T>(out.depth.ptr<T>(r), a, b, scale, z);
-        binSpan(r, a, b, false, buf, MinInto{bins});
+        binSpan(r, a, b, buf, MinInto{bins});
       }
     }
   }

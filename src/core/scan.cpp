@@ -103,6 +103,34 @@ KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, f
   }
 }
 
+// edgeBinLoop, binKey and rangeLoop of the same pixels in one pass (the same expressions: the same bits).
+KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
+                        float inv, float beams, const float* __restrict z, float* __restrict fb,
+                        std::int32_t* __restrict key, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    const float f = (fastAtan2(y, x) - lo) * inv;
+    fb[u] = f;
+    key[u] = binKey(f, beams);
+    range[u] = z[u] * std::sqrt(x * x + y * y);
+  }
+}
+
+// The column projection's: each column's bin position and range factor.
+KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
+                          const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
+                          float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    fb[u] = cb[u];
+    key[u] = binKey(cb[u], beams);
+    range[u] = z[u] * k[u];
+  }
+}
+
 KP_CLONES void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restrict z, float* __restrict out)
 {
   for (int u = u0; u <= u1; ++u)
@@ -113,16 +141,6 @@ KP_CLONES void scaleLoop(const float* __restrict k, int u0, int u1, const float*
 void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
 {
   edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
-}
-
-void ScanProjector::centreBins(int r, int u0, int u1, float* out) const
-{
-  if (projection_ == Projection::kColumn)
-  {
-    std::copy(col_centre_bins_.begin() + u0, col_centre_bins_.begin() + u1 + 1, out + u0);
-    return;
-  }
-  edgeBinLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
 }
 
 void ScanProjector::rowRanges(int r, const float* depth, float* range) const
@@ -136,6 +154,16 @@ void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float*
     scaleLoop(col_factor_.data(), u0, u1, depth, range);
   else
     rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
+}
+
+void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key,
+                             float* range) const
+{
+  const float beams = static_cast<float>(beams_);
+  if (projection_ == Projection::kColumn)
+    columnLoop(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
+  else
+    spanLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth, fb, key, range);
 }
 
 void ScanProjector::coverage(float& lo, float& hi) const
