@@ -88,17 +88,6 @@ public:
    * @return @p buffer, or the fixed per-column table of the column projection
    */
   const float* rowEdgeBins(int r, float* buffer) const;
-  /** @brief range[u] = depth[u] * rangeFactor(u, r) for a whole row (+Inf depth stays +Inf). */
-  void rowRanges(int r, const float* depth, float* range) const;
-  /** @return range per metre of depth of pixel (u, r). */
-  float rangeFactor(int u, int r) const
-  {
-    if (projection_ == Projection::kColumn)
-      return col_factor_[u];
-    const float x = ax_ * xn_[u] + bx_[r];
-    const float y = ay_ * xn_[u] + by_[r];
-    return std::sqrt(x * x + y * y);
-  }
   /**
    * @brief The range [lo, hi] of fractional bin positions any pixel of the image covers at this pose;
    *        bins outside it have no data (NaN), bins inside with no kept pixel no return (+Inf).
@@ -110,11 +99,10 @@ private:
 
   /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
   void edgeBins(int r, int e0, int e1, float* out) const;
-  /** @brief range[u] = depth[u] * rangeFactor(u, r) for u in [u0, u1] only (+Inf depth stays +Inf). */
-  void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
   /**
-   * @brief For pixels u0..u1 of row r: fb = fractional bin positions of their centres, key = their bins
-   *        (binKey), range = as spanRanges(); in one pass.
+   * @brief For pixels u0..u1 of row r, in one pass: fb = fractional bin positions of their centres, key = their
+   *        bins (binKey), range = depth * range per metre of depth (horizontal: hypot(X, Y); column:
+   *        1 / cos(theta_x)); +Inf depth stays +Inf.
    */
   void spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key, float* range) const;
 

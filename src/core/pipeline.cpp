@@ -429,8 +429,8 @@ bool windowAgrees(const ValueLabeler<T>& label, const ValueSplit& split, int hi)
 
 /**
  * The value thresholds of a row with values lo..hi (< no-return), searched from where the planes predict them if
- * the labels are provably monotone, else (8-bit) from every value's label. @return false if they are not monotone at all,
- * or (16-bit) not provably so.
+ * the labels are provably monotone, else (8-bit) from every value's label. @return false if they are not monotone
+ * at all, or (16-bit) not provably so.
  */
 template <typename T>
 bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, int hi, std::uint8_t* lab,
@@ -439,7 +439,7 @@ bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, 
   out = ValueSplit{DepthTraits<T>::kNoReturn, DepthTraits<T>::kNoReturn, 0, 0};
   if (lo > hi)
     return true;
-  const Monotone monotone = proof.monotone(label.rise_row);
+  const Monotone monotone = proof.monotone(label.colc[0] + label.rise_row);  // the row's whole rise
   if (monotone != Monotone::kNo)
   {
     int g1, g2;
@@ -1035,8 +1035,9 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   {
     by_value = std::all_of(colterm.begin(), colterm.end(), [&](float c) { return c == colterm[0]; });
     colc.fill(colterm[0]);
-    for (int v = 0; v < 256; ++v)
-      values[v] = static_cast<std::uint8_t>(v);
+    if constexpr (std::is_same_v<T, std::uint8_t>)
+      for (int v = 0; v < 256; ++v)
+        values[v] = static_cast<std::uint8_t>(v);
     proof.build(value_terms_, floor_h, ceil_h);
   }
   // The projector's row terms, for the coverage of this pose below.

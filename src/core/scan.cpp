@@ -93,17 +93,7 @@ KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax,
     out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
 }
 
-KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
-               const float* __restrict z, float* __restrict out)
-{
-  for (int u = u0; u <= u1; ++u)
-  {
-    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-    out[u] = z[u] * std::sqrt(x * x + y * y);
-  }
-}
-
-// edgeBinLoop, binKey and rangeLoop of the same pixels in one pass (the same expressions: the same bits).
+// The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
 KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
                         float inv, float beams, const float* __restrict z, float* __restrict fb,
                         std::int32_t* __restrict key, float* __restrict range)
@@ -131,29 +121,11 @@ KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k,
   }
 }
 
-KP_CLONES void scaleLoop(const float* __restrict k, int u0, int u1, const float* __restrict z, float* __restrict out)
-{
-  for (int u = u0; u <= u1; ++u)
-    out[u] = z[u] * k[u];
-}
 }  // namespace
 
 void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
 {
   edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
-}
-
-void ScanProjector::rowRanges(int r, const float* depth, float* range) const
-{
-  spanRanges(r, 0, width_ - 1, depth, range);
-}
-
-void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float* range) const
-{
-  if (projection_ == Projection::kColumn)
-    scaleLoop(col_factor_.data(), u0, u1, depth, range);
-  else
-    rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
 }
 
 void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key,

@@ -160,8 +160,15 @@ def run(frames: int = 300, rate: float = 30.0, threads: int = 1, only: str | Non
         params = work / "params.yaml"
         params.write_text(f"num_threads: {threads}\n")
         launch = ["pose_source:=static", "sensor_pitch:=0.26", f"params:={params}"]
-        relay = ["rosrun", "image_transport", "republish", "raw", "in:=/relay_in/sd/image_depth", "raw"]
-        relay.append("out:=/relay/image")
+        relay = [
+            "rosrun",
+            "image_transport",
+            "republish",
+            "raw",
+            "in:=/relay_in/sd/image_depth",
+            "raw",
+            "out:=/relay/image",
+        ]
         candidates = [
             _Subject(
                 "image_transport relay",
