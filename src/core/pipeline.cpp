@@ -716,6 +716,103 @@ void binCentres(const float* fc, const float* range, int a, int b, int beams, fl
   }
 }
 
+/**
+ * The pixels lo[j]..hi[j] into bin first + j, for j < n (ScanProjector::spanPixels): the same bins as binCentres
+ * fills from the centres' side.
+ */
+template <typename Acc>
+void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, int first, const Acc& acc)
+{
+  for (int j = 0; j < n; ++j)
+    for (int u = lo[j]; u <= hi[j]; ++u)
+      acc(first + j, range[u]);
+}
+
+#if defined(KP_PULL_AVX512)
+#pragma GCC diagnostic push
+// GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+// 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
+// two-register permute per pixel rank fetch them.
+__attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))) void pullMin512(const float* range,
+                                                                           const std::int32_t* lo,
+                                                                           const std::int32_t* hi, int n,
+                                                                           float* bins)
+{
+  const __m512i one = _mm512_set1_epi32(1);
+  const __m512 inf = _mm512_set1_ps(kInf);
+  for (int j = 0; j < n; j += 16)
+  {
+    const __mmask16 live = n - j >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (n - j)) - 1u);
+    const __m512i l = _mm512_maskz_loadu_epi32(live, lo + j);
+    const __m512i h = _mm512_maskz_loadu_epi32(live, hi + j);
+    const __m512i cnt = _mm512_maskz_sub_epi32(live, _mm512_add_epi32(h, one), l);  // pixels per bin, 0 for none
+    const __mmask16 some = _mm512_cmpgt_epi32_mask(cnt, _mm512_setzero_si512());
+    if (some == 0)
+      continue;
+    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
+    const int last = std::min(15, n - j - 1);
+    const int base = std::min(lo[j], lo[j + last]);
+    const int top = std::max(hi[j], hi[j + last]);
+    const __mmask16 out = _mm512_mask_cmplt_epi32_mask(some, l, _mm512_set1_epi32(base)) |
+                          _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
+    if (top - base >= 32 || out != 0)
+    {
+      float* bj = bins + j;
+      for (int i = 0; i <= last; ++i)
+        for (int u = lo[j + i]; u <= hi[j + i]; ++u)
+          bj[i] = range[u] < bj[i] ? range[u] : bj[i];
+      continue;
+    }
+    const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
+    __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
+    __m512 v = inf;
+    for (int c = 0;; ++c)
+    {
+      const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
+      if (m == 0)
+        break;
+      // min(x, v) takes v where x is NaN: NaN ranges are ignored, as the centres' binning ignores them.
+      v = _mm512_mask_min_ps(v, m, _mm512_permutex2var_ps(w0, idx, w1), v);
+      idx = _mm512_add_epi32(idx, one);
+    }
+    const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
+    _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
+  }
+}
+#pragma GCC diagnostic pop
+#endif
+
+bool g_vector_pull = true;  // detail::setVectorPull
+
+void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, int first, const MinInto& acc)
+{
+#if defined(KP_PULL_AVX512)
+  static const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  if (avx512 && g_vector_pull)
+    return pullMin512(range, lo, hi, n, acc.bins + first);
+#endif
+  for (int j = 0; j < n; ++j)
+  {
+    float v = kInf;
+    for (int u = lo[j]; u <= hi[j]; ++u)
+      v = range[u] < v ? range[u] : v;
+    acc(first + j, v);
+  }
+}
+
+}  // namespace
+
+bool detail::setVectorPull(bool on)
+{
+  const bool was = g_vector_pull;
+  g_vector_pull = on;
+  return was;
+}
+
+namespace
+{
 /** The projector's terms of the horizontal projection, for the coverage of a pose. */
 struct ScanGeometry
 {
@@ -736,6 +833,8 @@ struct Pipeline::Scratch
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
   std::vector<std::uint8_t> gaps;  // flags: pixels of the row whose next neighbour's centre is more than a bin away
+  std::vector<float> cross;             // columns where the bins' borders and middles cross the row
+  std::vector<std::int32_t> lo, hi;     // the pixels of each bin of the row
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
   std::vector<std::int64_t> band_sum;     // surface_band: ranges within the band per beam [um] (+ padding)
@@ -794,7 +893,10 @@ void Pipeline::prepareBuffers(int threads)
     s.tmp.resize(w);
     s.t.resize(w);
     s.z.resize(w);
-    s.range.resize(w);
+    s.range.resize(w + 32);  // the pull's vector loads read up to 31 past a span's last pixel
+    s.cross.resize(beams + 1);
+    s.lo.resize(beams);
+    s.hi.resize(beams);
     s.colmin.resize(w);
     s.edges.resize(w + 1);
     s.bins.resize(beams + 2);  // from beam -1 to beams: what lies outside the scan goes to the ends
@@ -914,6 +1016,8 @@ struct Pipeline::SpanBuffers
   float *z, *fb, *range;
   std::int32_t* key;
   std::uint8_t* gaps;
+  float* cross;             // ScanProjector::spanPixels
+  std::int32_t *lo, *hi;    // the pixels of each bin
 };
 
 /**
@@ -924,6 +1028,16 @@ struct Pipeline::SpanBuffers
 template <typename Acc>
 void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Acc& acc) const
 {
+  int first = 0;
+  const int n = projector_.spanPixels(r, a, b, buf.cross, buf.lo, buf.hi, first);
+  if (n == 0)
+    return;
+  if (n > 0)
+  {
+    projector_.spanRanges(r, a, b, buf.z, buf.range);
+    pullBins(buf.range, buf.lo, buf.hi, n, first, acc);
+    return;
+  }
   const int w = camera_.width;
   const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
   for (int u = a1; u < a; ++u)
@@ -955,7 +1069,8 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
     std::fill(s.band_sum.begin(), s.band_sum.end(), 0);
     std::fill(s.band_n.begin(), s.band_n.end(), 0);
     const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
-    const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data()};
+    const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data(), s.cross.data(),
+                          s.lo.data(), s.hi.data()};
 #pragma omp for schedule(dynamic, 8)
     for (int r = 0; r < h; ++r)
     {
@@ -1080,7 +1195,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     float* range = s.range.data();
     float* fb = s.edges.data();
     float* bins = s.bins.data() + 1;  // bins[-1] and bins[beams] take what lies outside the scan
-    const SpanBuffers buf{z, fb, range, s.key.data(), s.gaps.data()};
+    const SpanBuffers buf{z, fb, range, s.key.data(), s.gaps.data(), s.cross.data(), s.lo.data(), s.hi.data()};
     if (column)
       std::fill(s.colmin.begin(), s.colmin.end(), kInf);
     if (!column)

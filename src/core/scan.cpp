@@ -58,6 +58,15 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   }
   bx_.assign(height_, 1.0f);
   by_.assign(height_, 0.0f);
+  cx_ = static_cast<float>(camera.cx);
+  fx_ = static_cast<float>(camera.fx);
+  border_s_.resize(beams_ + 1);
+  border_c_.resize(beams_ + 1);
+  for (int k = 0; k <= beams_; ++k)
+  {
+    border_s_[k] = static_cast<float>(std::sin(lo + k * inc));
+    border_c_[k] = static_cast<float>(std::cos(lo + k * inc));
+  }
 }
 
 void ScanProjector::setPose(double pitch, double roll)
@@ -93,6 +102,9 @@ KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax,
     out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
 }
 
+// Range per metre of depth of the ray (x, y) of the horizontal projection, times the depth z.
+__attribute__((always_inline)) inline float rayRange(float x, float y, float z) { return z * std::sqrt(x * x + y * y); }
+
 // The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
 KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
                         float inv, float beams, const float* __restrict z, float* __restrict fb,
@@ -104,7 +116,61 @@ KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, fl
     const float f = (fastAtan2(y, x) - lo) * inv;
     fb[u] = f;
     key[u] = binKey(f, beams);
-    range[u] = z[u] * std::sqrt(x * x + y * y);
+    range[u] = rayRange(x, y, z[u]);
+  }
+}
+
+KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                         const float* __restrict z, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
+}
+
+// g[i] = column at which the bearing of dir (s[i], c[i]) crosses the row's line (X, Y) = (ax, ay) xn + (bx, by).
+KP_CLONES void crossLoop(const float* __restrict s, const float* __restrict c, int n, float ax, float ay, float bx,
+                         float by, float cx, float fx, float* __restrict g)
+{
+  for (int i = 0; i < n; ++i)
+    g[i] = cx + fx * ((bx * s[i] - by * c[i]) / (ay * c[i] - ax * s[i]));
+}
+
+// A column position clamped to [lo, hi] (NaN to lo).
+__attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
+{
+  g = g > lo ? g : lo;
+  return g < hi ? g : hi;
+}
+
+// Pixels of each bin j < n from the columns gb[j], gb[j + 1] where its borders cross the row, clipped to a..b.
+// Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A bin with no centre (narrower
+// than a pixel) gets the centre nearest to its middle, taken halfway between the border crossings (the bearing's
+// curvature over a pixel moves it by far less than a pixel).
+template <bool kUp>
+KP_CLONES void pixelLoop(const float* __restrict gb, int n, int a, int b, std::int32_t* __restrict lo,
+                         std::int32_t* __restrict hi)
+{
+  const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
+  for (int j = 0; j < n; ++j)
+  {
+    const float g0 = clampIn(gb[j], gl, gh), g1 = clampIn(gb[j + 1], gl, gh);
+    std::int32_t l, h;
+    if constexpr (kUp)
+    {
+      l = static_cast<std::int32_t>(std::ceil(g0));
+      h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+    }
+    else
+    {
+      l = static_cast<std::int32_t>(std::floor(g1)) + 1;
+      h = static_cast<std::int32_t>(std::floor(g0));
+    }
+    const std::int32_t mid = static_cast<std::int32_t>(std::floor(0.5f * (g0 + g1) + 0.5f));
+    const bool empty = l > h;
+    l = empty ? mid : l;
+    h = empty ? mid : h;
+    lo[j] = l < a ? a : l;
+    hi[j] = h > b ? b : h;
   }
 }
 
@@ -136,6 +202,57 @@ void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* f
     columnLoop(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
   else
     spanLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth, fb, key, range);
+}
+
+void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float* range) const
+{
+  rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
+}
+
+int ScanProjector::spanPixels(int r, int a, int b, float* g, std::int32_t* lo, std::int32_t* hi, int& first) const
+{
+  if (projection_ != Projection::kHorizontal)
+    return -1;
+  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
+  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor.
+  if (!(std::fabs(bx * ay - by * ax) > 1e-4f))
+    return -1;
+  // Bins of the centres either side of the span (the pixels a - 1 and b + 1, seen as +Inf), one more each side.
+  const float inv = 1.0f / inc_, beams = static_cast<float>(beams_);
+  float f[2];
+  for (int i = 0; i < 2; ++i)
+  {
+    const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) / fx_;
+    f[i] = (fastAtan2(ay * xn + by, ax * xn + bx) - lo_) * inv;
+  }
+  const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - 1);
+  const std::int32_t k1 = std::min(beams_ - 1, binKey(std::max(f[0], f[1]), beams) + 1);
+  if (k0 > k1)
+    return 0;
+  const int n = k1 - k0 + 1;
+  // Crossing columns of the borders k0..k1 + 1.
+  const float* s = border_s_.data() + k0;
+  const float* c = border_c_.data() + k0;
+  crossLoop(s, c, n + 1, ax, ay, bx, by, cx_, fx_, g);
+  // The formula holds where each bearing crosses the line ahead (not its opposite) at a finite column: the
+  // denominator keeps its sign between the ends (it is a sinusoid of the bearing, with zeros half a turn apart)
+  // and the crossing lies in the bearing's direction.
+  for (const int i : {0, n})
+  {
+    const float den = ay * c[i] - ax * s[i];
+    const float xn = (g[i] - cx_) / fx_;
+    if (!(std::fabs(den) > 1e-6f) || !std::isfinite(g[i]) ||
+        !((ax * xn + bx) * c[i] + (ay * xn + by) * s[i] > 0.0f))
+      return -1;
+  }
+  if ((ay * c[0] - ax * s[0] > 0.0f) != (ay * c[n] - ax * s[n] > 0.0f))
+    return -1;
+  if (g[n] > g[0])
+    pixelLoop<true>(g, n, a, b, lo, hi);
+  else
+    pixelLoop<false>(g, n, a, b, lo, hi);
+  first = k0;
+  return n;
 }
 
 void ScanProjector::coverage(float& lo, float& hi) const

@@ -13,3 +13,9 @@
 #else
 #define KP_CLONES
 #endif
+
+// The binning's pull (pipeline.cpp) has an AVX-512 path of its own, picked at run time.
+#if defined(__GNUC__) && defined(__x86_64__) && !defined(KP_NO_CLONES)
+#define KP_PULL_AVX512 1
+#include <immintrin.h>
+#endif

@@ -551,6 +551,40 @@ TEST(PipelineEdge, OneAndTwoThreadsGiveTheSameFrame)
   }
 }
 
+// The nearest range per bin has an AVX-512 path and a portable loop: both give the same bits, with few and with
+// many beams (bins of several pixels each, and bins narrower than a pixel).
+TEST(PipelineEdge, VectorAndPortableBinningGiveTheSameScan)
+{
+  const Camera cam = kinect();
+  Rendering gt;
+  renderScene(cam, 1.1, 0.3, 0.02, labScene(), gt);
+  cv::Mat m = gt.depth.clone();
+  addKinectNoise(m, 7);
+  const cv::Mat frame = encodeDepth(m, CV_16UC1, 12.0);
+  int finite = 0;
+  for (int beams : {0, 60, 1500})
+  {
+    Config cfg;
+    cfg.sensor_pitch = 0.3;
+    cfg.scan_beams = beams;
+    Pipeline a(cam, cfg), b(cam, cfg);
+    FrameResult ra, rb;
+    a.process(frame, 0.0, 0.02, ra);
+    const bool was = detail::setVectorPull(false);
+    b.process(frame, 0.0, 0.02, rb);
+    detail::setVectorPull(was);
+    ASSERT_EQ(ra.scan.ranges.size(), rb.scan.ranges.size());
+    for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
+    {
+      const float x = ra.scan.ranges[i], y = rb.scan.ranges[i];
+      ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << "beams " << beams << " beam " << i << ": " << x
+                                                              << " vs " << y;
+      finite += std::isfinite(x);
+    }
+  }
+  EXPECT_GT(finite, 1000);
+}
+
 TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
 {
   const Camera cam = kinect();

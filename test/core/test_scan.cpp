@@ -129,3 +129,94 @@ TEST(Confidence, WithoutFilterRangesAreUntouched)
   c.apply(r, i);
   EXPECT_FLOAT_EQ(i[0], 1.0f);
 }
+
+// spanPixels (the pipeline's binning of the horizontal projection, from the bins' side) against each pixel
+// centre's bearing in double precision: every centre clear of a border lies in its bin's pixels, and every bin
+// between two centres clear of its middle gets the nearer centre.
+TEST(ScanProjector, SpanPixelsAreTheCentresOfEachBin)
+{
+  const Camera cam = Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180);
+  int rows = 0, checked_centres = 0, checked_gaps = 0;
+  for (int beams : {0, 200, 900})
+    for (double pitch : {0.0, 0.26, 0.7, -0.3})
+      for (double roll : {0.0, 0.05, -0.3})
+      {
+        Config cfg;
+        cfg.scan_beams = beams;
+        ScanProjector p;
+        p.configure(cam, cfg);
+        p.setPose(pitch, roll);
+        const int nb = p.beams();
+        const double lo_angle = p.angleMin() - 0.5 * p.angleIncrement();
+        std::vector<float> g(nb + 1);
+        std::vector<std::int32_t> lo(nb), hi(nb);
+        const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+        for (int r = 0; r < cam.height; r += 7)
+        {
+          const int a = (r * 37) % 100, b = cam.width - 1 - (r * 13) % 90;  // spans of varying ends
+          int first = -1;
+          const int n = p.spanPixels(r, a, b, g.data(), lo.data(), hi.data(), first);
+          ASSERT_GE(n, 0) << "a forward-looking row has monotone bearings: pitch " << pitch << " roll " << roll;
+          ++rows;
+          // Exact fractional bin position of centre u (the ray rotated by roll, then pitch; see PlaneModel).
+          const double yn = (r - cam.cy) / cam.fy;
+          auto pos = [&](int u) {
+            const double xn = (u - cam.cx) / cam.fx;
+            const double X = -sp * sr * xn + cp - sp * cr * yn, Y = -cr * xn + sr * yn;
+            return (std::atan2(Y, X) - lo_angle) / p.angleIncrement();
+          };
+          std::vector<int> bin_of(nb, -1);
+          for (int u = a; u <= b; ++u)
+          {
+            const double f = pos(u);
+            const int k = static_cast<int>(std::floor(f));
+            if (k < 0 || k >= nb || std::fabs(f - std::round(f)) < 1e-3)
+              continue;
+            ASSERT_TRUE(k >= first && k < first + n) << "centre " << u << " in bin " << k << " outside the bins";
+            EXPECT_TRUE(lo[k - first] <= u && u <= hi[k - first])
+                << "row " << r << " centre " << u << " (bin position " << f << ") not in bin " << k << "'s pixels "
+                << lo[k - first] << ".." << hi[k - first];
+            ++checked_centres;
+          }
+          for (int u = a; u < b; ++u)
+          {
+            const double f0 = pos(u), f1 = pos(u + 1);
+            for (int k = static_cast<int>(std::floor(std::min(f0, f1))) + 1;
+                 k < static_cast<int>(std::floor(std::max(f0, f1))); ++k)
+            {
+              // Bin k holds no centre: it goes to the nearer of u, u + 1 (clear cases only).
+              const double mid = 0.5 * (f0 + f1);
+              if (k < 0 || k >= nb || std::fabs(k + 0.5 - mid) < 0.05)
+                continue;
+              const int want = (k + 0.5 < mid) == (f0 < f1) ? u : u + 1;
+              ASSERT_TRUE(k >= first && k < first + n);
+              EXPECT_EQ(lo[k - first], want) << "row " << r << " gap bin " << k;
+              EXPECT_EQ(hi[k - first], want) << "row " << r << " gap bin " << k;
+              ++checked_gaps;
+            }
+          }
+          // Bins before and after the span's pixels get nothing of it.
+          for (int j = 0; j < n; ++j)
+            EXPECT_TRUE(lo[j] > hi[j] || (a <= lo[j] && hi[j] <= b));
+        }
+      }
+  EXPECT_GT(checked_centres, 100000);
+  EXPECT_GT(checked_gaps, 1000);  // beams = 900: bins narrower than a pixel
+  EXPECT_GT(rows, 500);
+}
+
+TEST(ScanProjector, SpanPixelsDeclinesRowsThatLookStraightDown)
+{
+  const Camera cam = Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180);
+  Config cfg;
+  ScanProjector p;
+  p.configure(cam, cfg);
+  p.setPose(M_PI / 2, 0.0);  // the optical axis points down: the middle row's rays pass under the sensor
+  std::vector<float> g(p.beams() + 1);
+  std::vector<std::int32_t> lo(p.beams()), hi(p.beams());
+  int first = 0;
+  EXPECT_EQ(p.spanPixels(212, 0, 511, g.data(), lo.data(), hi.data(), first), -1);
+  cfg.projection = Projection::kColumn;
+  p.configure(cam, cfg);
+  EXPECT_EQ(p.spanPixels(0, 0, 511, g.data(), lo.data(), hi.data(), first), -1);
+}
