@@ -730,8 +730,10 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
 
 #if defined(KP_PULL_AVX512)
 #pragma GCC diagnostic push
+#if !defined(__clang__)
 // GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 // 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
 // two-register permute per pixel rank fetch them.
 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))) void pullMin512(const float* range,
