@@ -49,6 +49,16 @@ inline float fastAtan2(float y, float x)
 }
 
 /**
+ * Fractional bin position of the ray at normalised column xn of a row of the horizontal projection: its bearing
+ * atan2(Y, X), (X, Y) = (ax xn + bx, ay xn + by), from the scan's lower edge lo in bins of 1 / inv radians.
+ */
+__attribute__((always_inline)) inline float rayBin(float xn, float ax, float ay, float bx, float by, float lo,
+                                                   float inv)
+{
+  return (fastAtan2(ay * xn + by, ax * xn + bx) - lo) * inv;
+}
+
+/**
  * The bin of a fractional bin position f: its exact floor (the gap fill splits at exact borders too), clamped to
  * the padding slots -1 and beams; NaN goes to -1. Branch-free, so that the loops calling it vectorise.
  */
@@ -60,9 +70,10 @@ __attribute__((always_inline)) inline std::int32_t binKey(float f, float beams)
 }
 
 /**
- * Maps pixels to beams: a pixel goes to the bin of its centre's bearing (spanBins()); the pipeline gives the
- * bins between two neighbouring centres of a row to the nearer one, so the binning leaves no bin empty that a
- * surface covers, whatever the pitch. The column edges' bearings (rowEdgeBins()) bound what the image sees.
+ * Maps pixels to beams: a pixel goes to the bin of its centre's bearing, and the bins between two neighbouring
+ * centres of a row go to the nearer one, so the binning leaves no bin empty that a surface covers, whatever the
+ * pitch. The horizontal projection finds each bin's pixels from the bin's borders (spanPixels()); the column
+ * projection, and rows where that does not hold, bin the centres by their bearings (spanBins()). The column edges' bearings (rowEdgeBins()) bound what the image sees.
  *
  * Horizontal projection: the ray of pixel (u, r) in the gravity-aligned frame is
  * (X, Y) = (ax * xn + bx(r), ay * xn + by(r)) per metre of depth; its beam angle is atan2(Y, X) and its range

@@ -728,6 +728,15 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
       acc(first + j, range[u]);
 }
 
+// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored, as MinInto ignores them.
+inline float nearestOf(const float* range, int l, int h)
+{
+  float v = kInf;
+  for (int u = l; u <= h; ++u)
+    v = range[u] < v ? range[u] : v;
+  return v;
+}
+
 #if defined(KP_PULL_AVX512)
 #pragma GCC diagnostic push
 #if !defined(__clang__)
@@ -760,10 +769,11 @@ __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))) void pullMin512(co
                           _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
     if (top - base >= 32 || out != 0)
     {
-      float* bj = bins + j;
-      for (int i = 0; i <= last; ++i)
-        for (int u = lo[j + i]; u <= hi[j + i]; ++u)
-          bj[i] = range[u] < bj[i] ? range[u] : bj[i];
+      for (int i = j; i <= j + last; ++i)
+      {
+        const float v = nearestOf(range, lo[i], hi[i]);
+        bins[i] = v < bins[i] ? v : bins[i];
+      }
       continue;
     }
     const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
@@ -796,12 +806,7 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
     return pullMin512(range, lo, hi, n, acc.bins + first);
 #endif
   for (int j = 0; j < n; ++j)
-  {
-    float v = kInf;
-    for (int u = lo[j]; u <= hi[j]; ++u)
-      v = range[u] < v ? range[u] : v;
-    acc(first + j, v);
-  }
+    acc(first + j, nearestOf(range, lo[j], hi[j]));
 }
 
 }  // namespace
@@ -835,7 +840,7 @@ struct Pipeline::Scratch
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
   std::vector<std::uint8_t> gaps;  // flags: pixels of the row whose next neighbour's centre is more than a bin away
-  std::vector<float> cross;             // columns where the bins' borders and middles cross the row
+  std::vector<float> cross;             // columns where the bins' borders cross the row
   std::vector<std::int32_t> lo, hi;     // the pixels of each bin of the row
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
@@ -1210,7 +1215,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       {
         for (const float x : {geo.xe[0], geo.xe[w]})
         {
-          const float f = (fastAtan2(geo.ay * x + geo.by[r], geo.ax * x + geo.bx[r]) - geo.lo) * geo.inv;
+          const float f = rayBin(x, geo.ax, geo.ay, geo.bx[r], geo.by[r], geo.lo, geo.inv);
           s.cov_lo = std::min(s.cov_lo, f);
           s.cov_hi = std::max(s.cov_hi, f);
         }

@@ -99,7 +99,7 @@ KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax,
                  float inv, float* __restrict out)
 {
   for (int e = e0; e <= e1; ++e)
-    out[e] = (fastAtan2(ay * xe[e] + by, ax * xe[e] + bx) - lo) * inv;
+    out[e] = rayBin(xe[e], ax, ay, bx, by, lo, inv);
 }
 
 // Range per metre of depth of the ray (x, y) of the horizontal projection, times the depth z.
@@ -113,7 +113,7 @@ KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, fl
   for (int u = u0; u <= u1; ++u)
   {
     const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-    const float f = (fastAtan2(y, x) - lo) * inv;
+    const float f = rayBin(xn[u], ax, ay, bx, by, lo, inv);
     fb[u] = f;
     key[u] = binKey(f, beams);
     range[u] = rayRange(x, y, z[u]);
@@ -223,7 +223,7 @@ int ScanProjector::spanPixels(int r, int a, int b, float* g, std::int32_t* lo, s
   for (int i = 0; i < 2; ++i)
   {
     const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) / fx_;
-    f[i] = (fastAtan2(ay * xn + by, ax * xn + bx) - lo_) * inv;
+    f[i] = rayBin(xn, ax, ay, bx, by, lo_, inv);
   }
   const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - 1);
   const std::int32_t k1 = std::min(beams_ - 1, binKey(std::max(f[0], f[1]), beams) + 1);
@@ -270,7 +270,7 @@ void ScanProjector::coverage(float& lo, float& hi) const
   {
     for (const float x : {xe_.front(), xe_.back()})
     {
-      const float f = (fastAtan2(ay_ * x + by_[r], ax_ * x + bx_[r]) - lo_) * inv;
+      const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
       lo = std::min(lo, f);
       hi = std::max(hi, f);
     }
