@@ -146,8 +146,8 @@ private:
   void run(const cv::Mat& depth, FrameResult& out);
   struct SpanBuffers;
   Scratch& teamScratch(int& team);
-  template <typename Acc>
-  void binSpan(int r, int a, int b, const SpanBuffers& buf, const Acc& acc) const;
+  template <typename Acc, typename Src>
+  void binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& src, const Acc& acc) const;
   template <typename T>
   void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
   void prepareBuffers(int threads);

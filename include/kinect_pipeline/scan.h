@@ -110,16 +110,24 @@ public:
    *        spanBins gives the centres, up to float rounding at a bin's border, found from the bins' side instead.
    *
    * The horizontal parts (X, Y) of a row's rays lie on a straight line, so along a row the bearing is monotone
-   * and each bin border's bearing crosses the row at one column (a division, no atan): the centres in bin k are
-   * the columns between the crossings of k's two borders, lo[j]..hi[j] for k = first + j. A bin between two
+   * and each bin border's bearing crosses the row at one column (two products of the row's terms with the
+   * border's, set once per pose; no atan, no division): the centres in bin k are the columns between the
+   * crossings of k's two borders, lo[j]..hi[j] for k = first + j. A bin between two
    * neighbouring centres (narrower than a pixel) gets the centre nearest to its middle, lo[j] = hi[j]; its middle
    * is taken halfway between the two crossings. Both are clipped to a..b (lo[j] > hi[j]: nothing of the span).
-   * @param g scratch of beams + 1 floats
    * @return the number of bins n (0: the span reaches no bin), or -1 where this does not hold: the column
    *         projection, a row whose line passes (nearly) under the sensor, or bearings that leave the forward
    *         half-plane; the caller then bins the centres by their bearings (spanBins).
    */
-  int spanPixels(int r, int a, int b, float* g, std::int32_t* lo, std::int32_t* hi, int& first) const;
+  int spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const;
+  /** @brief range[u] = depth[u] * hypot(X, Y) of the horizontal projection, u in [u0, u1]. */
+  void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
+  /**
+   * @brief spanRanges of a cleaned row of the image's type (the depth of the pixels that are not removed, +Inf
+   *        for removed ones, times scale metres per unit), without a pass to convert it.
+   */
+  template <typename T>
+  void spanKeptRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;
 
 private:
   friend class Pipeline;  ///< bins only the kept part of each row, and tracks bins from row to row
@@ -132,8 +140,6 @@ private:
    *        1 / cos(theta_x)); +Inf depth stays +Inf.
    */
   void spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key, float* range) const;
-  /** @brief range[u] = depth[u] * hypot(X, Y) of the horizontal projection, u in [u0, u1]. */
-  void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
 
   Projection projection_ = Projection::kHorizontal;
   int width_ = 0, height_ = 0, beams_ = 0;
@@ -144,7 +150,10 @@ private:
   float ax_ = 0.0f, ay_ = 0.0f;
   std::vector<float> bx_, by_;                    // horizontal projection, per row
   float cx_ = 0.0f, fx_ = 1.0f;                   // column u of a ray: cx + fx * xn
+  float inv_fx_ = 1.0f;
   std::vector<float> border_s_, border_c_;  // sin, cos of the bearing of bin k's lower border, k <= beams
+  // At this pose: den = ay cos - ax sin of each border, and its crossing terms fx sin / den, fx cos / den.
+  std::vector<float> border_den_, border_p_, border_q_;
 };
 
 /**

@@ -840,7 +840,6 @@ struct Pipeline::Scratch
   std::vector<float> bins;       // nearest range per beam seen by this thread (+ a slot either side)
   std::vector<std::int32_t> key;  // bin of each pixel centre of the row
   std::vector<std::uint8_t> gaps;  // flags: pixels of the row whose next neighbour's centre is more than a bin away
-  std::vector<float> cross;             // columns where the bins' borders cross the row
   std::vector<std::int32_t> lo, hi;     // the pixels of each bin of the row
   std::vector<float> cliff_bins;          // nearest below-floor range per beam seen by this thread (+ padding)
   std::vector<std::int32_t> cliff_count;  // below-floor pixels per beam seen by this thread (+ padding)
@@ -901,7 +900,6 @@ void Pipeline::prepareBuffers(int threads)
     s.t.resize(w);
     s.z.resize(w);
     s.range.resize(w + 32);  // the pull's vector loads read up to 31 past a span's last pixel
-    s.cross.resize(beams + 1);
     s.lo.resize(beams);
     s.hi.resize(beams);
     s.colmin.resize(w);
@@ -1023,28 +1021,53 @@ struct Pipeline::SpanBuffers
   float *z, *fb, *range;
   std::int32_t* key;
   std::uint8_t* gaps;
-  float* cross;             // ScanProjector::spanPixels
-  std::int32_t *lo, *hi;    // the pixels of each bin
+  std::int32_t *lo, *hi;    // the pixels of each bin (ScanProjector::spanPixels)
 };
 
+namespace
+{
+/** The depths of a span that the caller put in SpanBuffers::z (+Inf where nothing is seen). */
+struct SpanDepths
+{
+  void depths(int, int, float*) const {}
+  void ranges(const ScanProjector& p, int r, int a, int b, const float* z, float* range) const
+  {
+    p.spanRanges(r, a, b, z, range);
+  }
+};
+
+/** The depths of the kept pixels of a cleaned row (+Inf for removed ones), read where they are needed. */
+template <typename T>
+struct KeptDepths
+{
+  const T* row;
+  float scale;
+  void depths(int a, int b, float* z) const { keptDepth<T>(row, a, b, scale, z); }
+  void ranges(const ScanProjector& p, int r, int a, int b, const float*, float* range) const
+  {
+    p.spanKeptRanges<T>(r, a, b, row, scale, range);
+  }
+};
+}  // namespace
+
 /**
- * Bins the span a..b of row r, whose depths the caller put in buf.z[a..b] (+Inf where nothing is seen), into acc.
- * One pixel either side goes in as +Inf too: a gap between the span's end and its neighbour is split between
- * them.
+ * Bins the span a..b of row r, whose depths src gives (SpanDepths, KeptDepths), into acc. One pixel either side
+ * goes in as +Inf too: a gap between the span's end and its neighbour is split between them.
  */
-template <typename Acc>
-void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Acc& acc) const
+template <typename Acc, typename Src>
+void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& src, const Acc& acc) const
 {
   int first = 0;
-  const int n = projector_.spanPixels(r, a, b, buf.cross, buf.lo, buf.hi, first);
+  const int n = projector_.spanPixels(r, a, b, buf.lo, buf.hi, first);
   if (n == 0)
     return;
   if (n > 0)
   {
-    projector_.spanRanges(r, a, b, buf.z, buf.range);
+    src.ranges(projector_, r, a, b, buf.z, buf.range);
     pullBins(buf.range, buf.lo, buf.hi, n, first, acc);
     return;
   }
+  src.depths(a, b, buf.z);
   const int w = camera_.width;
   const int a1 = std::max(0, a - 1), b1 = std::min(w - 1, b + 1);
   for (int u = a1; u < a; ++u)
@@ -1076,8 +1099,8 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
     std::fill(s.band_sum.begin(), s.band_sum.end(), 0);
     std::fill(s.band_n.begin(), s.band_n.end(), 0);
     const BandSum acc{band_limit_.data() + 1, s.band_sum.data() + 1, s.band_n.data() + 1};
-    const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data(), s.cross.data(),
-                          s.lo.data(), s.hi.data()};
+    const SpanBuffers buf{s.z.data(), s.edges.data(), s.range.data(), s.key.data(), s.gaps.data(), s.lo.data(),
+                          s.hi.data()};
 #pragma omp for schedule(dynamic, 8)
     for (int r = 0; r < h; ++r)
     {
@@ -1085,7 +1108,7 @@ void Pipeline::surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads)
       if (a > b)
         continue;
       keptRawDepth<T>(depth.ptr<T>(r), out.labels.ptr<std::uint8_t>(r), a, b, scale, buf.z);
-      binSpan(r, a, b, buf, acc);
+      binSpan(r, a, b, buf, SpanDepths{}, acc);
     }
   }
   for (int k = 0; k < beams; ++k)
@@ -1202,7 +1225,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     float* range = s.range.data();
     float* fb = s.edges.data();
     float* bins = s.bins.data() + 1;  // bins[-1] and bins[beams] take what lies outside the scan
-    const SpanBuffers buf{z, fb, range, s.key.data(), s.gaps.data(), s.cross.data(), s.lo.data(), s.hi.data()};
+    const SpanBuffers buf{z, fb, range, s.key.data(), s.gaps.data(), s.lo.data(), s.hi.data()};
     if (column)
       std::fill(s.colmin.begin(), s.colmin.end(), kInf);
     if (!column)
@@ -1299,7 +1322,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           --b;
         for (int u = a; u <= b; ++u)
           z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
-        binSpan(r, a, b, buf, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
+        binSpan(r, a, b, buf, SpanDepths{}, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
       spans_[2 * r] = w;
       spans_[2 * r + 1] = -1;
@@ -1333,8 +1356,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         const int a = spans_[2 * r], b = spans_[2 * r + 1];
         if (a > b)
           continue;
-        keptDepth<T>(out.depth.ptr<T>(r), a, b, scale, z);
-        binSpan(r, a, b, buf, MinInto{bins});
+        binSpan(r, a, b, buf, KeptDepths<T>{out.depth.ptr<T>(r), scale}, MinInto{bins});
       }
     }
   }

@@ -2,6 +2,8 @@
 
 #include "simd.h"
 
+#include "kinect_pipeline/encoding.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -62,11 +64,16 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   fx_ = static_cast<float>(camera.fx);
   border_s_.resize(beams_ + 1);
   border_c_.resize(beams_ + 1);
+  border_den_.resize(beams_ + 1);
+  border_p_.resize(beams_ + 1);
+  border_q_.resize(beams_ + 1);
   for (int k = 0; k <= beams_; ++k)
   {
     border_s_[k] = static_cast<float>(std::sin(lo + k * inc));
     border_c_[k] = static_cast<float>(std::cos(lo + k * inc));
   }
+  inv_fx_ = static_cast<float>(1.0 / camera.fx);
+  setPose(0.0, 0.0);
 }
 
 void ScanProjector::setPose(double pitch, double roll)
@@ -81,6 +88,16 @@ void ScanProjector::setPose(double pitch, double roll)
   {
     bx_[r] = static_cast<float>(cp - sp * cr * yn_[r]);
     by_[r] = static_cast<float>(sr * yn_[r]);
+  }
+  // Each border's crossing terms (see crossing()): the denominator depends on the pose, not on the row.
+  const double ax = ax_, ay = ay_, fx = fx_;
+  for (int k = 0; k <= beams_; ++k)
+  {
+    const double s = border_s_[k], c = border_c_[k];
+    const double den = ay * c - ax * s;
+    border_den_[k] = static_cast<float>(den);
+    border_p_[k] = static_cast<float>(fx * s / den);
+    border_q_[k] = static_cast<float>(fx * c / den);
   }
 }
 
@@ -127,12 +144,30 @@ KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, f
     range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
 }
 
-// g[i] = column at which the bearing of dir (s[i], c[i]) crosses the row's line (X, Y) = (ax, ay) xn + (bx, by).
-KP_CLONES void crossLoop(const float* __restrict s, const float* __restrict c, int n, float ax, float ay, float bx,
-                         float by, float cx, float fx, float* __restrict g)
+// rangeLoop on the cleaned row itself: the depth of each kept pixel (+Inf for removed ones) times its range factor.
+template <typename T>
+KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                             const T* __restrict row, float scale, float* __restrict range)
 {
-  for (int i = 0; i < n; ++i)
-    g[i] = cx + fx * ((bx * s[i] - by * c[i]) / (ay * c[i] - ax * s[i]));
+  const T removed = DepthTraits<T>::removed();
+  for (int u = u0; u <= u1; ++u)
+  {
+    const T v = row[u];
+    bool gone;
+    if constexpr (std::is_floating_point_v<T>)
+      gone = v != v;  // NaN
+    else
+      gone = v == removed;
+    const float z = gone ? std::numeric_limits<float>::infinity() : static_cast<float>(v) * scale;
+    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z);
+  }
+}
+
+// The column at which the bearing of border k crosses the row (bx, by): cx + fx (bx s - by c) / (ay c - ax s)
+// with the pose's terms P = fx s / den, Q = fx c / den (ScanProjector::setPose). The one formula of a crossing.
+__attribute__((always_inline)) inline float crossing(float p, float q, float bx, float by, float cx)
+{
+  return cx + (bx * p - by * q);
 }
 
 // A column position clamped to [lo, hi] (NaN to lo).
@@ -142,18 +177,19 @@ __attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
   return g < hi ? g : hi;
 }
 
-// Pixels of each bin j < n from the columns gb[j], gb[j + 1] where its borders cross the row, clipped to a..b.
-// Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A bin with no centre (narrower
-// than a pixel) gets the centre nearest to its middle, taken halfway between the border crossings (the bearing's
-// curvature over a pixel moves it by far less than a pixel).
+// Pixels of each bin j < n from the columns where its borders j, j + 1 cross the row (crossing(), border terms
+// p[j], q[j]), clipped to a..b. Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A
+// bin with no centre (narrower than a pixel) gets the centre nearest to its middle, taken halfway between the
+// border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
 template <bool kUp>
-KP_CLONES void pixelLoop(const float* __restrict gb, int n, int a, int b, std::int32_t* __restrict lo,
-                         std::int32_t* __restrict hi)
+KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
+                         int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
 {
   const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
   for (int j = 0; j < n; ++j)
   {
-    const float g0 = clampIn(gb[j], gl, gh), g1 = clampIn(gb[j + 1], gl, gh);
+    const float g0 = clampIn(crossing(p[j], q[j], bx, by, cx), gl, gh);
+    const float g1 = clampIn(crossing(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
     std::int32_t l, h;
     if constexpr (kUp)
     {
@@ -209,7 +245,16 @@ void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float*
   rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
 }
 
-int ScanProjector::spanPixels(int r, int a, int b, float* g, std::int32_t* lo, std::int32_t* hi, int& first) const
+template <typename T>
+void ScanProjector::spanKeptRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
+{
+  keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
+}
+template void ScanProjector::spanKeptRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
+template void ScanProjector::spanKeptRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
+template void ScanProjector::spanKeptRanges<float>(int, int, int, const float*, float, float*) const;
+
+int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const
 {
   if (projection_ != Projection::kHorizontal)
     return -1;
@@ -222,7 +267,7 @@ int ScanProjector::spanPixels(int r, int a, int b, float* g, std::int32_t* lo, s
   float f[2];
   for (int i = 0; i < 2; ++i)
   {
-    const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) / fx_;
+    const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) * inv_fx_;
     f[i] = rayBin(xn, ax, ay, bx, by, lo_, inv);
   }
   const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - 1);
@@ -230,27 +275,30 @@ int ScanProjector::spanPixels(int r, int a, int b, float* g, std::int32_t* lo, s
   if (k0 > k1)
     return 0;
   const int n = k1 - k0 + 1;
-  // Crossing columns of the borders k0..k1 + 1.
+  const float* p = border_p_.data() + k0;
+  const float* q = border_q_.data() + k0;
+  const float* den = border_den_.data() + k0;
   const float* s = border_s_.data() + k0;
   const float* c = border_c_.data() + k0;
-  crossLoop(s, c, n + 1, ax, ay, bx, by, cx_, fx_, g);
-  // The formula holds where each bearing crosses the line ahead (not its opposite) at a finite column: the
+  // The crossings hold where each bearing crosses the line ahead (not its opposite) at a finite column: the
   // denominator keeps its sign between the ends (it is a sinusoid of the bearing, with zeros half a turn apart)
   // and the crossing lies in the bearing's direction.
-  for (const int i : {0, n})
+  float g[2];
+  for (int e = 0; e < 2; ++e)
   {
-    const float den = ay * c[i] - ax * s[i];
-    const float xn = (g[i] - cx_) / fx_;
-    if (!(std::fabs(den) > 1e-6f) || !std::isfinite(g[i]) ||
+    const int i = e == 0 ? 0 : n;
+    g[e] = crossing(p[i], q[i], bx, by, cx_);
+    const float xn = (g[e] - cx_) * inv_fx_;
+    if (!(std::fabs(den[i]) > 1e-6f) || !std::isfinite(g[e]) ||
         !((ax * xn + bx) * c[i] + (ay * xn + by) * s[i] > 0.0f))
       return -1;
   }
-  if ((ay * c[0] - ax * s[0] > 0.0f) != (ay * c[n] - ax * s[n] > 0.0f))
+  if ((den[0] > 0.0f) != (den[n] > 0.0f))
     return -1;
-  if (g[n] > g[0])
-    pixelLoop<true>(g, n, a, b, lo, hi);
+  if (g[1] > g[0])
+    pixelLoop<true>(p, q, n, bx, by, cx_, a, b, lo, hi);
   else
-    pixelLoop<false>(g, n, a, b, lo, hi);
+    pixelLoop<false>(p, q, n, bx, by, cx_, a, b, lo, hi);
   first = k0;
   return n;
 }

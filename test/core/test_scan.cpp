@@ -148,14 +148,13 @@ TEST(ScanProjector, SpanPixelsAreTheCentresOfEachBin)
         p.setPose(pitch, roll);
         const int nb = p.beams();
         const double lo_angle = p.angleMin() - 0.5 * p.angleIncrement();
-        std::vector<float> g(nb + 1);
         std::vector<std::int32_t> lo(nb), hi(nb);
         const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
         for (int r = 0; r < cam.height; r += 7)
         {
           const int a = (r * 37) % 100, b = cam.width - 1 - (r * 13) % 90;  // spans of varying ends
           int first = -1;
-          const int n = p.spanPixels(r, a, b, g.data(), lo.data(), hi.data(), first);
+          const int n = p.spanPixels(r, a, b, lo.data(), hi.data(), first);
           ASSERT_GE(n, 0) << "a forward-looking row has monotone bearings: pitch " << pitch << " roll " << roll;
           ++rows;
           // Exact fractional bin position of centre u (the ray rotated by roll, then pitch; see PlaneModel).
@@ -212,11 +211,10 @@ TEST(ScanProjector, SpanPixelsDeclinesRowsThatLookStraightDown)
   ScanProjector p;
   p.configure(cam, cfg);
   p.setPose(M_PI / 2, 0.0);  // the optical axis points down: the middle row's rays pass under the sensor
-  std::vector<float> g(p.beams() + 1);
   std::vector<std::int32_t> lo(p.beams()), hi(p.beams());
   int first = 0;
-  EXPECT_EQ(p.spanPixels(212, 0, 511, g.data(), lo.data(), hi.data(), first), -1);
+  EXPECT_EQ(p.spanPixels(212, 0, 511, lo.data(), hi.data(), first), -1);
   cfg.projection = Projection::kColumn;
   p.configure(cam, cfg);
-  EXPECT_EQ(p.spanPixels(0, 0, 511, g.data(), lo.data(), hi.data(), first), -1);
+  EXPECT_EQ(p.spanPixels(0, 0, 511, lo.data(), hi.data(), first), -1);
 }
