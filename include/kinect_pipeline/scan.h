@@ -123,11 +123,13 @@ public:
   /** @brief range[u] = depth[u] * hypot(X, Y) of the horizontal projection, u in [u0, u1]. */
   void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
   /**
-   * @brief spanRanges of a cleaned row of the image's type (the depth of the pixels that are not removed, +Inf
-   *        for removed ones, times scale metres per unit), without a pass to convert it.
+   * @brief The squares of spanRanges of a cleaned row of the image's type (the depth of the pixels that are not
+   *        removed, +Inf for removed ones, times scale metres per unit), without a pass to convert it and without
+   *        a square root per pixel: fl(z^2) fl(X^2 + Y^2). The nearest of a bin's squared ranges, rooted, is its
+   *        nearest range (to within rounding; sqrt(fl(r^2)) is exactly r).
    */
   template <typename T>
-  void spanKeptRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;
+  void spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;
 
 private:
   friend class Pipeline;  ///< bins only the kept part of each row, and tracks bins from row to row

@@ -387,18 +387,19 @@ int firstTrue(const Pred& pred, int lo, int hi, int guess)
 template <typename T>
 void predictSplit(const ValueLabeler<T>& label, int lo, int hi, int& g1, int& g2)
 {
-  const double rise = static_cast<double>(label.colc[0] + label.rise_row), scale = label.scale;
-  const auto value = [&](double x) { return !(x >= lo) ? lo : (x > hi ? hi : static_cast<int>(x)); };  // NaN: lo
-  if (rise < 0.0)
+  // A guess: float arithmetic and one division (the row loop waits for it).
+  const float rise = label.colc[0] + label.rise_row, inv_scale = 1.0f / label.scale;
+  const auto value = [&](float x) { return !(x >= lo) ? lo : (x > hi ? hi : static_cast<int>(x)); };  // NaN: lo
+  if (rise < 0.0f)
   {
-    const double floor_at = label.floor_h / -rise / scale;  // [values]
-    const double t = label.table[value(floor_at)] / scale;
-    g1 = value(floor_at - label.table[value(floor_at - t)] / scale);
-    g2 = value(floor_at + label.table[value(floor_at + t)] / scale);
+    const float floor_at = label.floor_h / (-rise * label.scale);  // [values]
+    const float t = label.table[value(floor_at)] * inv_scale;
+    g1 = value(floor_at - label.table[value(floor_at - t)] * inv_scale);
+    g2 = value(floor_at + label.table[value(floor_at + t)] * inv_scale);
   }
   else
   {
-    g1 = rise > 0.0 ? value(label.ceil_h / rise / scale) : hi;
+    g1 = rise > 0.0f ? value(label.ceil_h / (rise * label.scale)) : hi;
     g2 = hi;
   }
 }
@@ -567,38 +568,46 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
   return c;
 }
 
-// First and last column labelled kept, 8 labels at a time (the row has a kept pixel).
-bool hasZeroByte(std::uint64_t x) { return ((x - 0x0101010101010101ull) & ~x & 0x8080808080808080ull) != 0; }
+// Whether lab[u..u+63] holds the label l (a fixed-length reduction: whole vectors).
+__attribute__((always_inline)) inline bool blockHas(const std::uint8_t* __restrict lab, int u, std::uint8_t l)
+{
+  std::uint8_t any = 0;
+  for (int k = 0; k < 64; ++k)
+    any |= lab[u + k] == l;
+  return any != 0;
+}
 
-int firstKept(const std::uint8_t* lab, int w)
+// First and last column with the label l, 64 labels at a time (the row has one).
+KP_CLONES int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
 {
   int u = 0;
-  for (; u + 8 <= w; u += 8)
-  {
-    std::uint64_t x;
-    std::memcpy(&x, lab + u, 8);
-    if (hasZeroByte(x))
+  for (; u + 64 <= w; u += 64)
+    if (blockHas(lab, u, l))
       break;
-  }
-  while (lab[u] != kKept)
+  while (lab[u] != l)
     ++u;
   return u;
 }
 
-int lastKept(const std::uint8_t* lab, int w)
+KP_CLONES int lastLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
 {
   int u = w;
-  for (; u >= 8; u -= 8)
-  {
-    std::uint64_t x;
-    std::memcpy(&x, lab + u - 8, 8);
-    if (hasZeroByte(x))
+  for (; u >= 64; u -= 64)
+    if (blockHas(lab, u - 64, l))
       break;
-  }
   do
     --u;
-  while (lab[u] != kKept);
+  while (lab[u] != l);
   return u;
+}
+
+// z[u] = opened depth of the pixel u labelled below floor, +Inf for the others, u in [u0, u1].
+template <typename T>
+KP_CLONES void belowFloorDepth(const T* __restrict src, const std::uint8_t* __restrict lab, int u0, int u1,
+                               float scale, float* __restrict z)
+{
+  for (int u = u0; u <= u1; ++u)
+    z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
 }
 
 // z[u] = depth of the kept pixel u of the cleaned row, +Inf for removed ones, for u in [u0, u1].
@@ -629,6 +638,13 @@ KP_CLONES void keptRawDepth(const T* __restrict in, const std::uint8_t* __restri
     const T v = Tr::map(in[u]);
     z[u] = (lab[u] == kKept && !Tr::isNoReturn(v)) ? static_cast<float>(v) * scale : kInf;
   }
+}
+
+// range[u] = range[u]^2, u in [u0, u1].
+KP_CLONES void squareSpan(float* __restrict range, int u0, int u1)
+{
+  for (int u = u0; u <= u1; ++u)
+    range[u] *= range[u];
 }
 
 KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
@@ -1026,7 +1042,7 @@ struct Pipeline::SpanBuffers
 
 namespace
 {
-/** The depths of a span that the caller put in SpanBuffers::z (+Inf where nothing is seen). */
+/** The depths of a span that the caller put in SpanBuffers::z (+Inf where nothing is seen); bins get ranges. */
 struct SpanDepths
 {
   void depths(int, int, float*) const {}
@@ -1034,9 +1050,13 @@ struct SpanDepths
   {
     p.spanRanges(r, a, b, z, range);
   }
+  void squareRanges(float*, int, int) const {}
 };
 
-/** The depths of the kept pixels of a cleaned row (+Inf for removed ones), read where they are needed. */
+/**
+ * The depths of the kept pixels of a cleaned row (+Inf for removed ones), read where they are needed; bins get
+ * squared ranges (ScanProjector::spanKeptSquaredRanges), rooted once per beam when the threads' bins are merged.
+ */
 template <typename T>
 struct KeptDepths
 {
@@ -1045,8 +1065,9 @@ struct KeptDepths
   void depths(int a, int b, float* z) const { keptDepth<T>(row, a, b, scale, z); }
   void ranges(const ScanProjector& p, int r, int a, int b, const float*, float* range) const
   {
-    p.spanKeptRanges<T>(r, a, b, row, scale, range);
+    p.spanKeptSquaredRanges<T>(r, a, b, row, scale, range);
   }
+  void squareRanges(float* range, int a, int b) const { squareSpan(range, a, b); }
 };
 }  // namespace
 
@@ -1075,6 +1096,7 @@ void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& s
   for (int u = b + 1; u <= b1; ++u)
     buf.z[u] = kInf;
   projector_.spanBins(r, a1, b1, buf.z, buf.fb, buf.key, buf.range);
+  src.squareRanges(buf.range, a1, b1);
   binCentres(buf.fb, buf.range, a1, b1, projector_.beams(), 3.14159265f / projector_.angleIncrement(), buf.key,
              buf.gaps, acc);
 }
@@ -1315,13 +1337,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (cliff && below > 0)
       {
         // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
-        int a = 0, b = w - 1;
-        while (lab[a] != kBelowFloor)
-          ++a;
-        while (lab[b] != kBelowFloor)
-          --b;
-        for (int u = a; u <= b; ++u)
-          z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
+        const int a = firstLabelled(lab, w, kBelowFloor), b = lastLabelled(lab, w, kBelowFloor);
+        belowFloorDepth<T>(src, lab, a, b, scale, z);
         binSpan(r, a, b, buf, SpanDepths{}, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
       spans_[2 * r] = w;
@@ -1329,7 +1346,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (c.kept == 0)
         continue;
       // Only the span from the first to the last kept pixel can reach a bin.
-      const int a = firstKept(lab, w), b = lastKept(lab, w);
+      const int a = firstLabelled(lab, w, kKept), b = lastLabelled(lab, w, kKept);
       spans_[2 * r] = a;
       spans_[2 * r + 1] = b;
       if (column)
@@ -1381,6 +1398,9 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     for (int k = 0; k < kNumLabels; ++k)
       out.counts[k] += s.counts[k];
   }
+  if (!column)  // the horizontal projection's bins hold squared ranges (KeptDepths)
+    for (float& r : scan.ranges)
+      r = std::sqrt(r);
   if (config_.surface_band > 0.0)
   {
     const auto ts = Clock::now();

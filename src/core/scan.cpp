@@ -144,23 +144,27 @@ KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, f
     range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
 }
 
-// rangeLoop on the cleaned row itself: the depth of each kept pixel (+Inf for removed ones) times its range factor.
+// The squared ranges of a cleaned row: (depth of each kept pixel, +Inf for removed ones)^2 (X^2 + Y^2). No square
+// root per pixel: the nearest squared range of a bin is the square of its nearest range, rooted once per beam.
 template <typename T>
 KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
                              const T* __restrict row, float scale, float* __restrict range)
 {
   const T removed = DepthTraits<T>::removed();
-  for (int u = u0; u <= u1; ++u)
-  {
-    const T v = row[u];
-    bool gone;
-    if constexpr (std::is_floating_point_v<T>)
-      gone = v != v;  // NaN
-    else
-      gone = v == removed;
-    const float z = gone ? std::numeric_limits<float>::infinity() : static_cast<float>(v) * scale;
-    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z);
-  }
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const T v = row[u];
+      bool gone;
+      if constexpr (std::is_floating_point_v<T>)
+        gone = v != v;  // NaN
+      else
+        gone = v == removed;
+      const float z = gone ? std::numeric_limits<float>::infinity() : static_cast<float>(v) * scale;
+      const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+      range[u] = (z * z) * (x * x + y * y);
+    }
+  });
 }
 
 // The column at which the bearing of border k crosses the row (bx, by): cx + fx (bx s - by c) / (ay c - ax s)
@@ -186,7 +190,8 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
                          int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
 {
   const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
-  for (int j = 0; j < n; ++j)
+  overlappedBlocks<32>(0, n, [&](int s, int m) {
+  for (int j = s; j < s + m; ++j)
   {
     const float g0 = clampIn(crossing(p[j], q[j], bx, by, cx), gl, gh);
     const float g1 = clampIn(crossing(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
@@ -208,6 +213,7 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
     lo[j] = l < a ? a : l;
     hi[j] = h > b ? b : h;
   }
+  });
 }
 
 // The column projection's: each column's bin position and range factor.
@@ -246,13 +252,13 @@ void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float*
 }
 
 template <typename T>
-void ScanProjector::spanKeptRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
+void ScanProjector::spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
 {
   keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
 }
-template void ScanProjector::spanKeptRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
-template void ScanProjector::spanKeptRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
-template void ScanProjector::spanKeptRanges<float>(int, int, int, const float*, float, float*) const;
+template void ScanProjector::spanKeptSquaredRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
+template void ScanProjector::spanKeptSquaredRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
+template void ScanProjector::spanKeptSquaredRanges<float>(int, int, int, const float*, float, float*) const;
 
 int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const
 {

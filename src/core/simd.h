@@ -19,3 +19,27 @@
 #define KP_PULL_AVX512 1
 #include <immintrin.h>
 #endif
+
+namespace kinect_pipeline
+{
+/**
+ * Covers [i0, i0 + n) with calls body(start, B) of a fixed length B, the last one overlapping the one before
+ * instead of leaving a remainder (spans shorter than B: one call body(i0, n)). With body inlined, each call is a
+ * loop of B iterations the compiler turns into whole vectors, without the scalar tail a loop of n has. Only for
+ * loops whose outputs are a function of their index (writing one twice writes the same value).
+ */
+template <int B, typename Body>
+__attribute__((always_inline)) inline void overlappedBlocks(int i0, int n, const Body& body)
+{
+  if (n < B)
+  {
+    body(i0, n);
+    return;
+  }
+  int i = i0;
+  for (; i + B <= i0 + n; i += B)
+    body(i, B);
+  if (i < i0 + n)
+    body(i0 + n - B, B);
+}
+}  // namespace kinect_pipeline

@@ -1,10 +1,14 @@
 #include <gtest/gtest.h>
 
 #include <cfloat>
+#include <cmath>
 #include <random>
+#include <type_traits>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "kinect_pipeline/encoding.h"
 #include "kinect_pipeline/morphology.h"
 
 using namespace kinect_pipeline;
@@ -59,7 +63,7 @@ TEST_P(OpenVsOpenCV, RectIsIdentical)
 
 INSTANTIATE_TEST_SUITE_P(Types, OpenVsOpenCV,
                          ::testing::Combine(::testing::Values(CV_8UC1, CV_16UC1, CV_32FC1), ::testing::Values(3, 5, 7),
-                                            ::testing::Values(1, 2, 37), ::testing::Values(1, 2, 64)));
+                                            ::testing::Values(1, 2, 37), ::testing::Values(1, 2, 3, 64, 66, 131, 512)));
 
 TEST(Morphology, OtherShapesUseOpenCV)
 {
@@ -78,4 +82,48 @@ TEST(Morphology, RefusesEvenKernels)
   cv::Mat img(4, 4, CV_8UC1, cv::Scalar(3)), out, scratch;
   EXPECT_THROW(morphOpen(img, out, 4, KernelShape::kRect, scratch), std::invalid_argument);
   EXPECT_THROW(morphOpen(img, out, 1, KernelShape::kRect, scratch), std::invalid_argument);
+}
+
+// The erosion of the fused pipeline maps unknown pixels to no-return on the fly (the 3x3 case by an order-preserving
+// key, not by mapping): against mapping every pixel first, then OpenCV's erosion.
+template <typename T>
+void checkErodeMapped(int type, int rows, int cols)
+{
+  cv::Mat img = randomImage(rows, cols, type, 11 + cols);
+  std::mt19937 rng(5 + cols);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+    {
+      const unsigned k = rng() % 6;  // unknown values, and the no-return value itself
+      if constexpr (std::is_same_v<T, float>)
+        img.at<float>(r, c) = k == 0 ? NAN : (k == 1 ? 0.0f : (k == 2 ? -INFINITY : img.at<float>(r, c)));
+      else
+        img.at<T>(r, c) = k == 0 ? T(0) : (k == 1 ? T(1) : (k == 2 ? DepthTraits<T>::kNoReturn : img.at<T>(r, c)));
+    }
+  cv::Mat mapped(img.size(), img.type()), ref;
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c)
+      mapped.at<T>(r, c) = DepthTraits<T>::map(img.at<T>(r, c));
+  for (const int ksize : {3, 5})
+  {
+    cv::erode(mapped, ref, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
+    if (type == CV_32FC1)
+      ref.setTo(INFINITY, ref == FLT_MAX);
+    cv::Mat got(img.size(), img.type());
+    std::vector<T> tmp(cols);
+    for (int r = 0; r < rows; ++r)
+      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
+    EXPECT_TRUE(identical(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize;
+  }
+}
+
+TEST(Morphology, ErodeMappedMatchesMappingFirst)
+{
+  for (const int cols : {1, 2, 3, 64, 65, 66, 131, 512})
+    for (const int rows : {1, 2, 9})
+    {
+      checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols);
+      checkErodeMapped<std::uint16_t>(CV_16UC1, rows, cols);
+      checkErodeMapped<float>(CV_32FC1, rows, cols);
+    }
 }
