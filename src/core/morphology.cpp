@@ -69,12 +69,6 @@ struct MapOrder<T, true>
                                                                      : static_cast<T>(k + kSmallest);
   }
 };
-template <>
-struct MapOrder<float, true>
-{
-  static float key(float v) { return DepthTraits<float>::map(v); }
-  static float back(float k) { return k; }
-};
 
 // The 3x3 case of rectRow / erodeMappedRow in one pass over the three source rows (a, b, c; repeated at the
 // image's top and bottom), nine loads per pixel and no intermediate row: a row of vertical minima stored and
@@ -141,7 +135,8 @@ KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst
 {
   using Tr = DepthTraits<T>;
   const int w = src.cols;
-  if (rad == 1 && w >= 3)
+  // Floats: mapping each of the nine loads costs more than the separable passes' wait (no cheap order key).
+  if (rad == 1 && w >= 3 && !std::is_floating_point_v<T>)
     return box3<T, true, true>(src, r, dst);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
