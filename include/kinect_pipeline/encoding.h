@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <type_traits>
 
 namespace kinect_pipeline
 {
@@ -66,5 +67,20 @@ struct DepthTraits<float>
   static bool isNoReturn(float v) { return !(v < std::numeric_limits<float>::max()); }
   static float removed() { return std::numeric_limits<float>::quiet_NaN(); }
 };
+
+/**
+ * The depth [m] a pixel v of a cleaned image stands for: +Inf where it was removed (DepthTraits<T>::removed()),
+ * else v * scale. Select-free, for the loops that vectorise.
+ */
+template <typename T>
+inline float keptMetres(T v, float scale)
+{
+  bool gone;
+  if constexpr (std::is_floating_point_v<T>)
+    gone = v != v;  // NaN
+  else
+    gone = v == DepthTraits<T>::removed();
+  return gone ? std::numeric_limits<float>::infinity() : static_cast<float>(v) * scale;
+}
 
 }  // namespace kinect_pipeline

@@ -614,17 +614,8 @@ KP_CLONES void belowFloorDepth(const T* __restrict src, const std::uint8_t* __re
 template <typename T>
 KP_CLONES void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
 {
-  const T removed = DepthTraits<T>::removed();
   for (int u = u0; u <= u1; ++u)
-  {
-    const T v = dst[u];
-    bool gone;
-    if constexpr (std::is_floating_point_v<T>)
-      gone = v != v;  // NaN
-    else
-      gone = v == removed;
-    z[u] = gone ? kInf : static_cast<float>(v) * scale;
-  }
+    z[u] = keptMetres(dst[u], scale);
 }
 
 // z[u] = measured (raw) depth of the pixel u labelled kept, +Inf for the others and for no return, u in [u0, u1].

@@ -150,17 +150,10 @@ template <typename T>
 KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
                              const T* __restrict row, float scale, float* __restrict range)
 {
-  const T removed = DepthTraits<T>::removed();
   overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
     for (int u = s; u < s + n; ++u)
     {
-      const T v = row[u];
-      bool gone;
-      if constexpr (std::is_floating_point_v<T>)
-        gone = v != v;  // NaN
-      else
-        gone = v == removed;
-      const float z = gone ? std::numeric_limits<float>::infinity() : static_cast<float>(v) * scale;
+      const float z = keptMetres(row[u], scale);
       const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
       range[u] = (z * z) * (x * x + y * y);
     }
