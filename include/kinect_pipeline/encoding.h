@@ -51,7 +51,8 @@ struct DepthTraits<std::uint16_t>
 {
   static constexpr Encoding kEncoding = Encoding::kMono16;
   static constexpr std::uint16_t kNoReturn = 65535;
-  static std::uint16_t map(std::uint16_t v) { return v == 0 ? kNoReturn : v; }
+  static constexpr std::uint16_t kMinValid = 1;  // 0: no measurement
+  static std::uint16_t map(std::uint16_t v) { return v < kMinValid ? kNoReturn : v; }
   static bool isNoReturn(std::uint16_t v) { return v == kNoReturn; }
   static std::uint16_t removed() { return 0; }
 };

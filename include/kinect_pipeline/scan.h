@@ -84,7 +84,7 @@ class ScanProjector
 public:
   /** @brief Sets beams and angle range from the camera and config (fixed until they change). */
   void configure(const Camera& camera, const Config& config);
-  /** @brief Sets the per-row terms for this frame's pose (O(rows)). */
+  /** @brief Sets the per-row and per-border terms for this frame's pose (O(rows + beams)). */
   void setPose(double pitch, double roll);
 
   int beams() const { return beams_; }
@@ -126,7 +126,7 @@ public:
    * @brief The squares of spanRanges of a cleaned row of the image's type (the depth of the pixels that are not
    *        removed, +Inf for removed ones, times scale metres per unit), without a pass to convert it and without
    *        a square root per pixel: fl(z^2) fl(X^2 + Y^2). The nearest of a bin's squared ranges, rooted, is its
-   *        nearest range (to within rounding; sqrt(fl(r^2)) is exactly r).
+   *        nearest range to within a few float roundings.
    */
   template <typename T>
   void spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;

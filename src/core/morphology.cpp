@@ -61,7 +61,7 @@ struct MapOrder
 template <typename T>
 struct MapOrder<T, true>
 {
-  static constexpr T kSmallest = std::is_same_v<T, std::uint8_t> ? DepthTraits<std::uint8_t>::kMinValid : 1;
+  static constexpr T kSmallest = DepthTraits<T>::kMinValid;
   static T key(T v) { return static_cast<T>(v - kSmallest); }
   static T back(T k)
   {
@@ -136,8 +136,9 @@ KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst
   using Tr = DepthTraits<T>;
   const int w = src.cols;
   // Floats: mapping each of the nine loads costs more than the separable passes' wait (no cheap order key).
-  if (rad == 1 && w >= 3 && !std::is_floating_point_v<T>)
-    return box3<T, true, true>(src, r, dst);
+  if constexpr (!std::is_floating_point_v<T>)
+    if (rad == 1 && w >= 3)
+      return box3<T, true, true>(src, r, dst);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   for (int u = 0; u < w; ++u)

@@ -184,28 +184,28 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
 {
   const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
   overlappedBlocks<32>(0, n, [&](int s, int m) {
-  for (int j = s; j < s + m; ++j)
-  {
-    const float g0 = clampIn(crossing(p[j], q[j], bx, by, cx), gl, gh);
-    const float g1 = clampIn(crossing(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
-    std::int32_t l, h;
-    if constexpr (kUp)
+    for (int j = s; j < s + m; ++j)
     {
-      l = static_cast<std::int32_t>(std::ceil(g0));
-      h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+      const float g0 = clampIn(crossing(p[j], q[j], bx, by, cx), gl, gh);
+      const float g1 = clampIn(crossing(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
+      std::int32_t l, h;
+      if constexpr (kUp)
+      {
+        l = static_cast<std::int32_t>(std::ceil(g0));
+        h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+      }
+      else
+      {
+        l = static_cast<std::int32_t>(std::floor(g1)) + 1;
+        h = static_cast<std::int32_t>(std::floor(g0));
+      }
+      const std::int32_t mid = static_cast<std::int32_t>(std::floor(0.5f * (g0 + g1) + 0.5f));
+      const bool empty = l > h;
+      l = empty ? mid : l;
+      h = empty ? mid : h;
+      lo[j] = l < a ? a : l;
+      hi[j] = h > b ? b : h;
     }
-    else
-    {
-      l = static_cast<std::int32_t>(std::floor(g1)) + 1;
-      h = static_cast<std::int32_t>(std::floor(g0));
-    }
-    const std::int32_t mid = static_cast<std::int32_t>(std::floor(0.5f * (g0 + g1) + 0.5f));
-    const bool empty = l > h;
-    l = empty ? mid : l;
-    h = empty ? mid : h;
-    lo[j] = l < a ? a : l;
-    hi[j] = h > b ? b : h;
-  }
   });
 }
 
