@@ -81,13 +81,6 @@ struct ValueTerms
   static constexpr int kValueWindow = 4;
   double d_max = 0.0, t_max = 0.0;  ///< depth and threshold of the largest value [m]
 };
-
-/**
- * Whether the scan's nearest range per bin may use its AVX-512 path where the CPU has one (default true); false
- * forces the portable loop, which gives the same bits. For tests: not to be changed while frames are processed.
- * @return the previous setting
- */
-bool setVectorPull(bool on);
 }  // namespace detail
 
 /**

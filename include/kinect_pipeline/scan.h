@@ -70,6 +70,36 @@ __attribute__((always_inline)) inline std::int32_t binKey(float f, float beams)
 }
 
 /**
+ * The bins a span of a row reaches in the horizontal projection (ScanProjector::spanPlan): the pixels of bin
+ * first + j (j < n) are the columns between where the bearings of its borders j and j + 1 cross the row,
+ * cx + (bx p[j] - by q[j]), clipped to a..b.
+ */
+struct SpanPlan
+{
+  int first = 0, n = 0;
+  bool up = true;  ///< bearings grow with the column
+  const float *p = nullptr, *q = nullptr;  ///< the crossing terms of borders first .. first + n
+  float bx = 0.0f, by = 0.0f, cx = 0.0f;   ///< the row's terms, the principal point's column
+  int a = 0, b = 0;                        ///< the span
+};
+
+namespace detail
+{
+/**
+ * The nearest of range[lo[j] .. hi[j]] into bins[j] (min with what it holds) for j < n, NaN ranges ignored, with
+ * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j).
+ * @return false (nothing done) where the CPU has no AVX-512 or setVectorPull(false) turned it off
+ */
+bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins);
+/**
+ * Whether the scan's nearest range per bin may use its AVX-512 path where the CPU has one (default true); false
+ * forces the portable loop, which gives the same bits. For tests: not to be changed while frames are processed.
+ * @return the previous setting
+ */
+bool setVectorPull(bool on);
+}  // namespace detail
+
+/**
  * Maps pixels to beams: a pixel goes to the bin of its centre's bearing, and the bins between two neighbouring
  * centres of a row go to the nearer one, so the binning leaves no bin empty that a surface covers, whatever the
  * pitch. The horizontal projection finds each bin's pixels from the bin's borders (spanPixels()); the column
@@ -120,6 +150,10 @@ public:
    *         half-plane; the caller then bins the centres by their bearings (spanBins).
    */
   int spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const;
+  /** @brief spanPixels' checks and bins without the pixels: @return n as spanPixels, and the plan where n > 0. */
+  int spanPlan(int r, int a, int b, SpanPlan& plan) const;
+  /** @brief The pixels lo[j]..hi[j] of each bin j of a plan (as spanPixels gives them). */
+  static void planPixels(const SpanPlan& plan, std::int32_t* lo, std::int32_t* hi);
   /** @brief range[u] = depth[u] * hypot(X, Y) of the horizontal projection, u in [u0, u1]. */
   void spanRanges(int r, int u0, int u1, const float* depth, float* range) const;
   /**

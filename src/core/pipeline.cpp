@@ -223,20 +223,6 @@ struct ValueSplit
   std::uint8_t l1 = 0, l2 = 0;
 };
 
-// Smallest and largest value other than no-return (the largest value) of a row (lo > hi if there is none).
-template <typename T>
-KP_CLONES void valueRange(const T* __restrict src, int w, int& lo, int& hi)
-{
-  T mn = DepthTraits<T>::kNoReturn, mx = 0;
-  for (int u = 0; u < w; ++u)
-  {
-    mn = std::min(mn, src[u]);
-    mx = std::max(mx, static_cast<T>(src[u] + 1));  // no-return wraps to 0
-  }
-  lo = mn;
-  hi = static_cast<int>(mx) - 1;
-}
-
 /**
  * The table's terms of ValueProof over the values 0 .. no-return - 1, with d = fl(v scale) as the pixels get it.
  * @param table the threshold of each value (ThresholdLut::valueTable)
@@ -495,6 +481,11 @@ bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, 
   }
 }
 
+/**
+ * splitRow's work on one block of 64 bytes of pixels, as GCC vector extensions (each KP_CLONES clone lowers them to
+ * its own vector width): labels, cleaned depth and, with kRescue, the rescue's flags, and the block's counts added
+ * to per-lane counters (a mask is -1: subtracting it counts one) for the lanes in count.
+ */
 // Labels, cleaned depth and counts of an 8- or 16-bit row from its value thresholds. Integer arithmetic of the
 // pixel's width only, with counters of that width per block of 128 pixels (a multiple of every vector width), so
 // that it vectorises without a scalar tail. With in (the raw row), also flags in cand the pixels the rescue may
@@ -577,13 +568,30 @@ __attribute__((always_inline)) inline bool blockHas(const std::uint8_t* __restri
   return any != 0;
 }
 
-// First and last column with the label l, 64 labels at a time (the row has one).
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "labelBits and the flag scans read 8 bytes as a little-endian word"
+#endif
+// The high bit of each byte of the 8 labels at p that equals l (exact for every byte, not only the lowest:
+// the zero-byte test of x = labels ^ l without a borrow from byte to byte). Byte i is label p[i] (little endian).
+inline std::uint64_t labelBits(const std::uint8_t* p, std::uint8_t l)
+{
+  std::uint64_t x;
+  std::memcpy(&x, p, 8);
+  x ^= 0x0101010101010101ull * l;
+  constexpr std::uint64_t low7 = 0x7F7F7F7F7F7F7F7Full;
+  return ~(((x & low7) + low7) | x | low7);
+}
+
+// First and last column with the label l (the row has one): 64 labels at a time, then 8 (labelBits), then one.
 KP_CLONES int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
 {
   int u = 0;
   for (; u + 64 <= w; u += 64)
     if (blockHas(lab, u, l))
       break;
+  for (; u + 8 <= w; u += 8)
+    if (const std::uint64_t m = labelBits(lab + u, l))
+      return u + __builtin_ctzll(m) / 8;
   while (lab[u] != l)
     ++u;
   return u;
@@ -595,6 +603,9 @@ KP_CLONES int lastLabelled(const std::uint8_t* __restrict lab, int w, std::uint8
   for (; u >= 64; u -= 64)
     if (blockHas(lab, u - 64, l))
       break;
+  for (; u >= 8; u -= 8)
+    if (const std::uint64_t m = labelBits(lab + u - 8, l))
+      return u - 8 + (63 - __builtin_clzll(m)) / 8;
   do
     --u;
   while (lab[u] != l);
@@ -735,95 +746,7 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
       acc(first + j, range[u]);
 }
 
-// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored, as MinInto ignores them.
-inline float nearestOf(const float* range, int l, int h)
-{
-  float v = kInf;
-  for (int u = l; u <= h; ++u)
-    v = range[u] < v ? range[u] : v;
-  return v;
-}
-
-#if defined(KP_PULL_AVX512)
-#pragma GCC diagnostic push
-#if !defined(__clang__)
-// GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-// 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
-// two-register permute per pixel rank fetch them.
-__attribute__((target("avx512f,avx512bw,avx512dq,avx512vl"))) void pullMin512(const float* range,
-                                                                           const std::int32_t* lo,
-                                                                           const std::int32_t* hi, int n,
-                                                                           float* bins)
-{
-  const __m512i one = _mm512_set1_epi32(1);
-  const __m512 inf = _mm512_set1_ps(kInf);
-  for (int j = 0; j < n; j += 16)
-  {
-    const __mmask16 live = n - j >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (n - j)) - 1u);
-    const __m512i l = _mm512_maskz_loadu_epi32(live, lo + j);
-    const __m512i h = _mm512_maskz_loadu_epi32(live, hi + j);
-    const __m512i cnt = _mm512_maskz_sub_epi32(live, _mm512_add_epi32(h, one), l);  // pixels per bin, 0 for none
-    const __mmask16 some = _mm512_cmpgt_epi32_mask(cnt, _mm512_setzero_si512());
-    if (some == 0)
-      continue;
-    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
-    const int last = std::min(15, n - j - 1);
-    const int base = std::min(lo[j], lo[j + last]);
-    const int top = std::max(hi[j], hi[j + last]);
-    const __mmask16 out = _mm512_mask_cmplt_epi32_mask(some, l, _mm512_set1_epi32(base)) |
-                          _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
-    if (top - base >= 32 || out != 0)
-    {
-      for (int i = j; i <= j + last; ++i)
-      {
-        const float v = nearestOf(range, lo[i], hi[i]);
-        bins[i] = v < bins[i] ? v : bins[i];
-      }
-      continue;
-    }
-    const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
-    __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
-    __m512 v = inf;
-    for (int c = 0;; ++c)
-    {
-      const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
-      if (m == 0)
-        break;
-      // min(x, v) takes v where x is NaN: NaN ranges are ignored, as the centres' binning ignores them.
-      v = _mm512_mask_min_ps(v, m, _mm512_permutex2var_ps(w0, idx, w1), v);
-      idx = _mm512_add_epi32(idx, one);
-    }
-    const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
-    _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
-  }
-}
-#pragma GCC diagnostic pop
-#endif
-
-bool g_vector_pull = true;  // detail::setVectorPull
-
-void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, int first, const MinInto& acc)
-{
-#if defined(KP_PULL_AVX512)
-  static const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  if (avx512 && g_vector_pull)
-    return pullMin512(range, lo, hi, n, acc.bins + first);
-#endif
-  for (int j = 0; j < n; ++j)
-    acc(first + j, nearestOf(range, lo[j], hi[j]));
-}
-
 }  // namespace
-
-bool detail::setVectorPull(bool on)
-{
-  const bool was = g_vector_pull;
-  g_vector_pull = on;
-  return was;
-}
 
 namespace
 {
@@ -1069,14 +992,20 @@ struct KeptDepths
 template <typename Acc, typename Src>
 void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& src, const Acc& acc) const
 {
-  int first = 0;
-  const int n = projector_.spanPixels(r, a, b, buf.lo, buf.hi, first);
+  SpanPlan plan;
+  const int n = projector_.spanPlan(r, a, b, plan);
   if (n == 0)
     return;
   if (n > 0)
   {
+    ScanProjector::planPixels(plan, buf.lo, buf.hi);
     src.ranges(projector_, r, a, b, buf.z, buf.range);
-    pullBins(buf.range, buf.lo, buf.hi, n, first, acc);
+    if constexpr (std::is_same_v<Acc, MinInto>)
+    {
+      if (detail::pullNearest(buf.range, buf.lo, buf.hi, n, acc.bins + plan.first))
+        return;
+    }
+    pullBins(buf.range, buf.lo, buf.hi, n, plan.first, acc);
     return;
   }
   src.depths(a, b, buf.z);
@@ -1287,11 +1216,10 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       {
         if (by_value)
         {
-          int lo, hi;
-          valueRange<T>(src, w, lo, hi);
-          // The rescue below looks at raw values, which may lie above the opened row's: split up to no-return - 1.
-          if (rad > 0 && lo <= hi)
-            hi = Tr::kNoReturn - 1;
+          // Split over every value but no return, whichever the row holds: the thresholds of a search over the
+          // row's own values would be these, clamped to them (the labels are monotone in the value), and the
+          // rescue below looks at raw values, which may lie above the opened row's.
+          const int lo = 0, hi = Tr::kNoReturn - 1;
           ValueSplit split;
           const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))

@@ -161,10 +161,15 @@ KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float a
 }
 
 // The column at which the bearing of border k crosses the row (bx, by): cx + fx (bx s - by c) / (ay c - ax s)
-// with the pose's terms P = fx s / den, Q = fx c / den (ScanProjector::setPose). The one formula of a crossing.
+// with the pose's terms P = fx s / den, Q = fx c / den (ScanProjector::setPose). The one formula of a crossing;
+// without roll (by = 0) the product by q is a zero, and bx p - 0 is bx p: kRoll false leaves it out, same bits.
+template <bool kRoll>
 __attribute__((always_inline)) inline float crossing(float p, float q, float bx, float by, float cx)
 {
-  return cx + (bx * p - by * q);
+  if constexpr (kRoll)
+    return cx + (bx * p - by * q);
+  else
+    return cx + bx * p;
 }
 
 // A column position clamped to [lo, hi] (NaN to lo).
@@ -178,7 +183,7 @@ __attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
 // p[j], q[j]), clipped to a..b. Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A
 // bin with no centre (narrower than a pixel) gets the centre nearest to its middle, taken halfway between the
 // border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
-template <bool kUp>
+template <bool kUp, bool kRoll>
 KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
                          int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
 {
@@ -186,8 +191,8 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
   overlappedBlocks<32>(0, n, [&](int s, int m) {
     for (int j = s; j < s + m; ++j)
     {
-      const float g0 = clampIn(crossing(p[j], q[j], bx, by, cx), gl, gh);
-      const float g1 = clampIn(crossing(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
+      const float g0 = clampIn(crossing<kRoll>(p[j], q[j], bx, by, cx), gl, gh);
+      const float g1 = clampIn(crossing<kRoll>(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
       std::int32_t l, h;
       if constexpr (kUp)
       {
@@ -208,6 +213,88 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
     }
   });
 }
+
+// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored (a min that keeps the nearest so far).
+inline float nearestOf(const float* range, int l, int h)
+{
+  float v = std::numeric_limits<float>::infinity();
+  for (int u = l; u <= h; ++u)
+    v = range[u] < v ? range[u] : v;
+  return v;
+}
+
+#if defined(KP_PULL_AVX512)
+#define KP_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
+#pragma GCC diagnostic push
+#if !defined(__clang__)
+// GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+// 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
+// two-register permute per pixel rank fetch them. (Fused with pixelLoop, the columns of a chunk come at the end of
+// a long chain of dependent operations and each branch on them waits for it: slower, by perf.)
+KP_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
+{
+  const __m512i one = _mm512_set1_epi32(1);
+  const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+  for (int j = 0; j < n; j += 16)
+  {
+    const __mmask16 live = n - j >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (n - j)) - 1u);
+    // Whole loads and stores where the chunk is full: a masked load waits for the stores before it (pixelLoop's,
+    // the previous row's pull) to reach the cache instead of taking their data (by perf: a third of the pull).
+    const bool full = live == 0xFFFF;
+    const __m512i l = full ? _mm512_loadu_si512(lo + j) : _mm512_maskz_loadu_epi32(live, lo + j);
+    const __m512i h = full ? _mm512_loadu_si512(hi + j) : _mm512_maskz_loadu_epi32(live, hi + j);
+    const __m512i cnt = _mm512_maskz_sub_epi32(live, _mm512_add_epi32(h, one), l);  // pixels per bin, 0 for none
+    const __mmask16 some = _mm512_cmpgt_epi32_mask(cnt, _mm512_setzero_si512());
+    if (some == 0)
+      continue;
+    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
+    const int last = std::min(15, n - j - 1);
+    const int base = std::min(lo[j], lo[j + last]);
+    const int top = std::max(hi[j], hi[j + last]);
+    const __mmask16 out = _mm512_mask_cmplt_epi32_mask(some, l, _mm512_set1_epi32(base)) |
+                          _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
+    if (top - base >= 32 || out != 0)
+    {
+      for (int i = j; i <= j + last; ++i)
+      {
+        const float v = nearestOf(range, lo[i], hi[i]);
+        bins[i] = v < bins[i] ? v : bins[i];
+      }
+      continue;
+    }
+    const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
+    __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
+    // min(x, v) takes v where x is NaN: NaN ranges are ignored, as nearestOf ignores them. The first two pixel
+    // ranks whatever the counts (most bins hold one or two): the loop's exit is then all but always at its start.
+    __m512 v = _mm512_mask_min_ps(inf, some, _mm512_permutex2var_ps(w0, idx, w1), inf);
+    idx = _mm512_add_epi32(idx, one);
+    v = _mm512_mask_min_ps(v, _mm512_cmpgt_epi32_mask(cnt, one), _mm512_permutex2var_ps(w0, idx, w1), v);
+    for (int c = 2;; ++c)
+    {
+      const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
+      if (m == 0)
+        break;
+      idx = _mm512_add_epi32(idx, one);
+      v = _mm512_mask_min_ps(v, m, _mm512_permutex2var_ps(w0, idx, w1), v);
+    }
+    if (full)
+    {
+      _mm512_storeu_ps(bins + j, _mm512_min_ps(v, _mm512_loadu_ps(bins + j)));
+    }
+    else
+    {
+      const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
+      _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
+    }
+  }
+}
+#pragma GCC diagnostic pop
+#undef KP_AVX512
+#endif
+
+bool g_vector_pull = true;  // detail::setVectorPull
 
 // The column projection's: each column's bin position and range factor.
 KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
@@ -253,7 +340,7 @@ template void ScanProjector::spanKeptSquaredRanges<std::uint8_t>(int, int, int, 
 template void ScanProjector::spanKeptSquaredRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
 template void ScanProjector::spanKeptSquaredRanges<float>(int, int, int, const float*, float, float*) const;
 
-int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const
+int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
 {
   if (projection_ != Projection::kHorizontal)
     return -1;
@@ -286,7 +373,7 @@ int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_
   for (int e = 0; e < 2; ++e)
   {
     const int i = e == 0 ? 0 : n;
-    g[e] = crossing(p[i], q[i], bx, by, cx_);
+    g[e] = crossing<true>(p[i], q[i], bx, by, cx_);
     const float xn = (g[e] - cx_) * inv_fx_;
     if (!(std::fabs(den[i]) > 1e-6f) || !std::isfinite(g[e]) ||
         !((ax * xn + bx) * c[i] + (ay * xn + by) * s[i] > 0.0f))
@@ -294,13 +381,66 @@ int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_
   }
   if ((den[0] > 0.0f) != (den[n] > 0.0f))
     return -1;
-  if (g[1] > g[0])
-    pixelLoop<true>(p, q, n, bx, by, cx_, a, b, lo, hi);
-  else
-    pixelLoop<false>(p, q, n, bx, by, cx_, a, b, lo, hi);
-  first = k0;
+  plan.first = k0;
+  plan.n = n;
+  plan.up = g[1] > g[0];
+  plan.p = p;
+  plan.q = q;
+  plan.bx = bx;
+  plan.by = by;
+  plan.cx = cx_;
+  plan.a = a;
+  plan.b = b;
   return n;
 }
+
+int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const
+{
+  SpanPlan plan;
+  const int n = spanPlan(r, a, b, plan);
+  if (n > 0)
+  {
+    planPixels(plan, lo, hi);
+    first = plan.first;
+  }
+  return n;
+}
+
+void ScanProjector::planPixels(const SpanPlan& s, std::int32_t* lo, std::int32_t* hi)
+{
+  const bool roll = s.by != 0.0f;
+  if (s.up)
+    (roll ? pixelLoop<true, true> : pixelLoop<true, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
+  else
+    (roll ? pixelLoop<false, true> : pixelLoop<false, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
+}
+
+bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
+{
+#if defined(KP_PULL_AVX512)
+  static const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  if (!avx512 || !g_vector_pull)
+    return false;
+  pullMin512(range, lo, hi, n, bins);
+  return true;
+#else
+  (void)range;
+  (void)lo;
+  (void)hi;
+  (void)n;
+  (void)bins;
+  return false;
+#endif
+}
+
+bool detail::setVectorPull(bool on)
+{
+  const bool was = g_vector_pull;
+  g_vector_pull = on;
+  return was;
+}
+
 
 void ScanProjector::coverage(float& lo, float& hi) const
 {
