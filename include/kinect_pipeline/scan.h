@@ -88,15 +88,15 @@ namespace detail
 /**
  * The nearest of range[lo[j] .. hi[j]] into bins[j] (min with what it holds) for j < n, NaN ranges ignored, with
  * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j).
- * @return false (nothing done) where the CPU has no AVX-512 or setVectorPull(false) turned it off
+ * @return false (nothing done) where the CPU has no AVX-512 or setVectorPaths(false) turned it off
  */
 bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins);
 /**
- * Whether the scan's nearest range per bin may use its AVX-512 path where the CPU has one (default true); false
- * forces the portable loop, which gives the same bits. For tests: not to be changed while frames are processed.
- * @return the previous setting
+ * Whether the hand-written AVX-512 paths (the scan's nearest range per bin, the 3x3 opening) may run where the CPU
+ * has AVX-512 (default true); false forces the portable loops, which give the same bits. For tests: not to be
+ * changed while frames are processed. @return the previous setting
  */
-bool setVectorPull(bool on);
+bool setVectorPaths(bool on);
 }  // namespace detail
 
 /**

@@ -102,12 +102,124 @@ KP_CLONES void box3Row(const T* __restrict a, const T* __restrict b, const T* __
   dst[w - 1] = O::back(pick<kMin>(col(w - 2), col(w - 1)));
 }
 
+#if defined(KP_AVX512_PATHS)
+#pragma GCC diagnostic push
+#if !defined(__clang__)
+// GCC 12's _mm512_alignr_epi32 passes _mm512_undefined_epi32() as its unused source: a false "may be used
+// uninitialized".
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+// box3Row of 8- and 16-bit rows with AVX-512: the column minima (maxima) of three rows once per pixel, in
+// registers, and their neighbours by shifting the vector across its 128-bit lanes (alignr of 32-bit words, then
+// of bytes) instead of loading six more rows' worth at offsets of one pixel. Min, max and the order key are exact:
+// the same bits as box3Row. The row ends repeat their pixel (min(x, x) = x), as box3Row's ends leave it out.
+template <typename T, bool kMin, bool kMap>
+struct Box3Vector
+{
+  static constexpr int kLanes = 64 / sizeof(T);
+  static constexpr int kSmallest = kMap ? DepthTraits<T>::kMinValid : 0;
+
+  KP_TARGET_AVX512 static __m512i pick(__m512i x, __m512i y)
+  {
+    if constexpr (sizeof(T) == 1)
+      return kMin ? _mm512_min_epu8(x, y) : _mm512_max_epu8(x, y);
+    else
+      return kMin ? _mm512_min_epu16(x, y) : _mm512_max_epu16(x, y);
+  }
+  KP_TARGET_AVX512 static __m512i key(const T* p)
+  {
+    const __m512i v = _mm512_loadu_si512(p);
+    if constexpr (!kMap)
+      return v;
+    else if constexpr (sizeof(T) == 1)
+      return _mm512_sub_epi8(v, _mm512_set1_epi8(kSmallest));
+    else
+      return _mm512_sub_epi16(v, _mm512_set1_epi16(kSmallest));
+  }
+  // MapOrder::back: keys above no-return - smallest were unknown values.
+  KP_TARGET_AVX512 static __m512i back(__m512i k)
+  {
+    if constexpr (!kMap)
+      return k;
+    constexpr T none = DepthTraits<T>::kNoReturn;
+    if constexpr (sizeof(T) == 1)
+    {
+      const __mmask64 unknown = _mm512_cmpgt_epu8_mask(k, _mm512_set1_epi8(static_cast<char>(none - kSmallest)));
+      return _mm512_mask_mov_epi8(_mm512_add_epi8(k, _mm512_set1_epi8(kSmallest)), unknown,
+                                  _mm512_set1_epi8(static_cast<char>(none)));
+    }
+    else
+    {
+      const __mmask32 unknown = _mm512_cmpgt_epu16_mask(k, _mm512_set1_epi16(static_cast<short>(none - kSmallest)));
+      return _mm512_mask_mov_epi16(_mm512_add_epi16(k, _mm512_set1_epi16(kSmallest)), unknown,
+                                   _mm512_set1_epi16(static_cast<short>(none)));
+    }
+  }
+  KP_TARGET_AVX512 static __m512i column(const T* a, const T* b, const T* c, int u)
+  {
+    return pick(pick(key(a + u), key(b + u)), key(c + u));
+  }
+  // [prev's last pixel, cur's pixels but the last]: the left neighbours of cur's pixels.
+  KP_TARGET_AVX512 static __m512i left(__m512i cur, __m512i prev)
+  {
+    return _mm512_alignr_epi8(cur, _mm512_alignr_epi32(cur, prev, 12), 16 - sizeof(T));
+  }
+  // [cur's pixels but the first, next's first pixel]: the right neighbours.
+  KP_TARGET_AVX512 static __m512i right(__m512i cur, __m512i next)
+  {
+    return _mm512_alignr_epi8(_mm512_alignr_epi32(next, cur, 4), cur, sizeof(T));
+  }
+  // The column of pixel u alone (as box3Row's), in every lane.
+  KP_TARGET_AVX512 static __m512i splatColumn(const T* a, const T* b, const T* c, int u)
+  {
+    using O = MapOrder<T, kMap>;
+    const T v = detail::pick<kMin>(detail::pick<kMin>(O::key(a[u]), O::key(b[u])), O::key(c[u]));
+    if constexpr (sizeof(T) == 1)
+      return _mm512_set1_epi8(static_cast<char>(v));
+    else
+      return _mm512_set1_epi16(static_cast<short>(v));
+  }
+
+  // w >= kLanes. Whole vectors, then the last kLanes pixels once more (the same values where they overlap).
+  KP_TARGET_AVX512 static void row(const T* a, const T* b, const T* c, int w, T* dst)
+  {
+    const int full = w / kLanes * kLanes;
+    __m512i cur = column(a, b, c, 0);
+    __m512i prev = splatColumn(a, b, c, 0);
+    for (int u = 0; u < full; u += kLanes)
+    {
+      // The next whole vector, or (the last one) the pixel after this vector or the row's last pixel repeated.
+      const __m512i next = u + 2 * kLanes <= w ? column(a, b, c, u + kLanes)
+                                               : splatColumn(a, b, c, std::min(u + kLanes, w - 1));
+      _mm512_storeu_si512(dst + u, back(pick(pick(left(cur, prev), cur), right(cur, next))));
+      prev = cur;
+      cur = next;
+    }
+    if (full < w)
+    {
+      const int u = w - kLanes;  // >= 1
+      const __m512i x = column(a, b, c, u);
+      const __m512i m = pick(pick(column(a, b, c, u - 1), x), right(x, splatColumn(a, b, c, w - 1)));
+      _mm512_storeu_si512(dst + u, back(m));
+    }
+  }
+};
+#pragma GCC diagnostic pop
+#endif
+
 template <typename T, bool kMin, bool kMap>
 void box3(const cv::Mat& src, int r, T* dst)
 {
   const T* b = src.ptr<T>(r);
   const T* a = r > 0 ? src.ptr<T>(r - 1) : b;
   const T* c = r + 1 < src.rows ? src.ptr<T>(r + 1) : b;
+#if defined(KP_AVX512_PATHS)
+  if constexpr (!std::is_floating_point_v<T>)
+  {
+    if (src.cols >= Box3Vector<T, kMin, kMap>::kLanes && vectorPaths())
+      return Box3Vector<T, kMin, kMap>::row(a, b, c, src.cols, dst);
+  }
+#endif
   box3Row<T, kMin, kMap>(a, b, c, src.cols, dst);
 }
 }  // namespace

@@ -223,8 +223,7 @@ inline float nearestOf(const float* range, int l, int h)
   return v;
 }
 
-#if defined(KP_PULL_AVX512)
-#define KP_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
+#if defined(KP_AVX512_PATHS)
 #pragma GCC diagnostic push
 #if !defined(__clang__)
 // GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
@@ -233,7 +232,7 @@ inline float nearestOf(const float* range, int l, int h)
 // 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
 // two-register permute per pixel rank fetch them. (Fused with pixelLoop, the columns of a chunk come at the end of
 // a long chain of dependent operations and each branch on them waits for it: slower, by perf.)
-KP_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
+KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
 {
   const __m512i one = _mm512_set1_epi32(1);
   const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
@@ -291,10 +290,7 @@ KP_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std:
   }
 }
 #pragma GCC diagnostic pop
-#undef KP_AVX512
 #endif
-
-bool g_vector_pull = true;  // detail::setVectorPull
 
 // The column projection's: each column's bin position and range factor.
 KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
@@ -417,10 +413,8 @@ void ScanProjector::planPixels(const SpanPlan& s, std::int32_t* lo, std::int32_t
 
 bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
 {
-#if defined(KP_PULL_AVX512)
-  static const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
-                             __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  if (!avx512 || !g_vector_pull)
+#if defined(KP_AVX512_PATHS)
+  if (!vectorPaths())
     return false;
   pullMin512(range, lo, hi, n, bins);
   return true;
@@ -434,10 +428,10 @@ bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::
 #endif
 }
 
-bool detail::setVectorPull(bool on)
+bool detail::setVectorPaths(bool on)
 {
-  const bool was = g_vector_pull;
-  g_vector_pull = on;
+  const bool was = g_vector_paths;
+  g_vector_paths = on;
   return was;
 }
 

@@ -14,14 +14,34 @@
 #define KP_CLONES
 #endif
 
-// The binning's pull (pipeline.cpp) has an AVX-512 path of its own, picked at run time.
+// The binning's pull (scan.cpp) and the 3x3 opening (morphology.cpp) have AVX-512 paths of their own, picked at
+// run time (detail::vectorPaths).
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(KP_NO_CLONES)
-#define KP_PULL_AVX512 1
+#define KP_AVX512_PATHS 1
+#define KP_TARGET_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
 #include <immintrin.h>
 #endif
 
 namespace kinect_pipeline
 {
+namespace detail
+{
+/** detail::setVectorPaths (scan.h): whether the hand-written AVX-512 paths may run (tests turn them off). */
+inline bool g_vector_paths = true;
+
+/** Whether the CPU has the AVX-512 subsets the hand-written paths use and they are on. */
+inline bool vectorPaths()
+{
+#if defined(KP_AVX512_PATHS)
+  static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                          __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  return has && g_vector_paths;
+#else
+  return false;
+#endif
+}
+}  // namespace detail
+
 /**
  * Covers [i0, i0 + n) with calls body(start, B) of a fixed length B, the last one overlapping the one before
  * instead of leaving a remainder (spans shorter than B: one call body(i0, n)). With body inlined, each call is a

@@ -10,6 +10,7 @@
 
 #include "kinect_pipeline/encoding.h"
 #include "kinect_pipeline/morphology.h"
+#include "kinect_pipeline/scan.h"  // detail::setVectorPaths
 
 using namespace kinect_pipeline;
 
@@ -53,17 +54,25 @@ TEST_P(OpenVsOpenCV, RectIsIdentical)
 {
   const auto [type, ksize, rows, cols] = GetParam();
   const cv::Mat img = randomImage(rows, cols, type, 7 + ksize + rows);
-  cv::Mat ref, got, scratch;
+  cv::Mat ref, scratch;
   cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
-  morphOpen(img, got, ksize, KernelShape::kRect, scratch);
   if (type == CV_32FC1)
     ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
-  EXPECT_TRUE(identical(ref, got));
+  // The AVX-512 3x3 path where the CPU has one, and the portable loops.
+  for (const bool vector : {true, false})
+  {
+    const bool was = detail::setVectorPaths(vector);
+    cv::Mat got;
+    morphOpen(img, got, ksize, KernelShape::kRect, scratch);
+    detail::setVectorPaths(was);
+    EXPECT_TRUE(identical(ref, got)) << (vector ? "vector" : "portable");
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Types, OpenVsOpenCV,
                          ::testing::Combine(::testing::Values(CV_8UC1, CV_16UC1, CV_32FC1), ::testing::Values(3, 5, 7),
-                                            ::testing::Values(1, 2, 37), ::testing::Values(1, 2, 3, 64, 66, 131, 512)));
+                                            ::testing::Values(1, 2, 37),
+                                            ::testing::Values(1, 2, 3, 31, 32, 33, 63, 64, 65, 66, 127, 128, 131, 512)));
 
 TEST(Morphology, OtherShapesUseOpenCV)
 {
@@ -109,17 +118,23 @@ void checkErodeMapped(int type, int rows, int cols)
     cv::erode(mapped, ref, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
     if (type == CV_32FC1)
       ref.setTo(INFINITY, ref == FLT_MAX);
-    cv::Mat got(img.size(), img.type());
-    std::vector<T> tmp(cols);
-    for (int r = 0; r < rows; ++r)
-      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
-    EXPECT_TRUE(identical(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize;
+    for (const bool vector : {true, false})
+    {
+      const bool was = detail::setVectorPaths(vector);
+      cv::Mat got(img.size(), img.type());
+      std::vector<T> tmp(cols);
+      for (int r = 0; r < rows; ++r)
+        detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
+      detail::setVectorPaths(was);
+      EXPECT_TRUE(identical(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
+                                       << (vector ? " vector" : " portable");
+    }
   }
 }
 
 TEST(Morphology, ErodeMappedMatchesMappingFirst)
 {
-  for (const int cols : {1, 2, 3, 64, 65, 66, 131, 512})
+  for (const int cols : {1, 2, 3, 31, 32, 33, 63, 64, 65, 66, 127, 128, 131, 512})
     for (const int rows : {1, 2, 9})
     {
       checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols);

@@ -575,9 +575,9 @@ TEST(PipelineEdge, VectorAndPortableBinningGiveTheSameScan)
     Pipeline a(cam, cfg), b(cam, cfg);
     FrameResult ra, rb;
     a.process(frame, 0.0, roll, ra);
-    const bool was = detail::setVectorPull(false);
+    const bool was = detail::setVectorPaths(false);
     b.process(frame, 0.0, roll, rb);
-    detail::setVectorPull(was);
+    detail::setVectorPaths(was);
     ASSERT_EQ(ra.scan.ranges.size(), rb.scan.ranges.size());
     for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
     {
