@@ -181,6 +181,7 @@ private:
   int width_ = 0, height_ = 0, beams_ = 0;
   float angle_min_ = 0.0f, angle_max_ = 0.0f, inc_ = 1.0f, lo_ = 0.0f;
   std::vector<float> xn_, xe_;                    // per column centre / edge
+  std::vector<float> xn2_;                        // xn^2 per column centre
   std::vector<float> yn_;                         // per row
   std::vector<float> col_edge_bins_, col_centre_bins_, col_factor_;  // column projection
   float ax_ = 0.0f, ay_ = 0.0f;

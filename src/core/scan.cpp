@@ -19,8 +19,12 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   xn_.resize(width_);
   xe_.resize(width_ + 1);
   yn_.resize(height_);
+  xn2_.resize(width_);
   for (int u = 0; u < width_; ++u)
+  {
     xn_[u] = static_cast<float>((u - camera.cx) / camera.fx);
+    xn2_[u] = xn_[u] * xn_[u];
+  }
   for (int e = 0; e <= width_; ++e)
     xe_[e] = static_cast<float>((e - 0.5 - camera.cx) / camera.fx);
   for (int r = 0; r < height_; ++r)
@@ -156,6 +160,22 @@ KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float a
       const float z = keptMetres(row[u], scale);
       const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
       range[u] = (z * z) * (x * x + y * y);
+    }
+  });
+}
+
+// keptRangeLoop of a row without roll (ax = 0, ay = -1, by = 0): X = 0 xn + bx = bx and Y = -xn exactly, so
+// X^2 + Y^2 = bx^2 + xn^2 with xn^2 from a table: the same bits with two operations fewer per pixel.
+template <typename T>
+KP_CLONES void keptRangeLoopLevel(const float* __restrict xn2, int u0, int u1, float bx, const T* __restrict row,
+                                  float scale, float* __restrict range)
+{
+  const float bx2 = bx * bx;
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const float z = keptMetres(row[u], scale);
+      range[u] = (z * z) * (bx2 + xn2[u]);
     }
   });
 }
@@ -330,7 +350,10 @@ void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float*
 template <typename T>
 void ScanProjector::spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
 {
-  keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
+  if (ax_ == 0.0f && ay_ == -1.0f && by_[r] == 0.0f)
+    keptRangeLoopLevel<T>(xn2_.data(), u0, u1, bx_[r], row, scale, range);
+  else
+    keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
 }
 template void ScanProjector::spanKeptSquaredRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
 template void ScanProjector::spanKeptSquaredRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 
@@ -558,36 +559,51 @@ TEST(PipelineEdge, OneAndTwoThreadsGiveTheSameFrame)
   }
 }
 
-// The nearest range per bin has an AVX-512 path and a portable loop: both give the same bits, with few and with
-// many beams (bins of several pixels each, and bins narrower than a pixel).
-TEST(PipelineEdge, VectorAndPortableBinningGiveTheSameScan)
+// The hand-written AVX-512 paths (the nearest range per bin, the 3x3 opening, the labels of a row by value) and
+// the portable loops give the same bits: scan, labels, cleaned depth and counts, with few and with many beams (bins
+// of several pixels each, and bins narrower than a pixel), in 8 and 16 bits, with roll and without (rows labelled
+// by value, crossings without the roll's product).
+TEST(PipelineEdge, VectorAndPortablePathsGiveTheSameFrame)
 {
-  const Camera cam = kinect();
-  const cv::Mat frame = encodeDepth(noisyTiltedLab(cam, 7), CV_16UC1, 12.0);
   int finite = 0;
-  // With roll, and without (the crossings leave out the roll's product then).
-  for (const double roll : {0.02, 0.0})
-  for (int beams : {0, 60, 1500})
+  // Widths of whole vectors (512), with a remainder (100) and narrower than a vector of 8-bit pixels (40).
+  for (const Camera& cam : {kinect(), Camera::fromFov(100, 83, 1.2322, 1.0472), Camera::fromFov(40, 33, 1.2322, 1.0472)})
   {
-    Config cfg;
-    cfg.sensor_pitch = 0.3;
-    cfg.scan_beams = beams;
-    Pipeline a(cam, cfg), b(cam, cfg);
-    FrameResult ra, rb;
-    a.process(frame, 0.0, roll, ra);
-    const bool was = detail::setVectorPaths(false);
-    b.process(frame, 0.0, roll, rb);
-    detail::setVectorPaths(was);
-    ASSERT_EQ(ra.scan.ranges.size(), rb.scan.ranges.size());
-    for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
-    {
-      const float x = ra.scan.ranges[i], y = rb.scan.ranges[i];
-      ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << "roll " << roll << ", beams " << beams << " beam " << i << ": " << x
-                                                              << " vs " << y;
-      finite += std::isfinite(x);
-    }
+  const cv::Mat metres = noisyTiltedLab(cam, 7);
+  for (const int type : {CV_16UC1, CV_8UC1})
+    for (const double roll : {0.02, 0.0})
+      for (const int beams : {0, 60, 1500})
+      {
+        const cv::Mat frame = encodeDepth(metres, type, 12.0);
+        Config cfg;
+        cfg.sensor_pitch = 0.3;
+        cfg.scan_beams = beams;
+        Pipeline a(cam, cfg), b(cam, cfg);
+        FrameResult ra, rb;
+        a.process(frame, 0.0, roll, ra);
+        const bool was = detail::setVectorPaths(false);
+        b.process(frame, 0.0, roll, rb);
+        detail::setVectorPaths(was);
+        const std::string where = "width " + std::to_string(cam.width) + ", type " + std::to_string(type) + ", roll " + std::to_string(roll) + ", beams " +
+                                  std::to_string(beams);
+        ASSERT_EQ(cv::countNonZero(ra.labels != rb.labels), 0) << where;
+        ASSERT_EQ(std::memcmp(ra.depth.data, rb.depth.data, ra.depth.total() * ra.depth.elemSize()), 0) << where;
+        ASSERT_EQ(ra.counts, rb.counts) << where;
+        ASSERT_EQ(ra.scan.ranges.size(), rb.scan.ranges.size());
+        for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
+        {
+          const float x = ra.scan.ranges[i], y = rb.scan.ranges[i];
+          ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << where << " beam " << i << ": " << x << " vs " << y;
+          finite += std::isfinite(x);
+        }
+        for (std::size_t i = 0; i < ra.cliff.ranges.size(); ++i)
+        {
+          const float x = ra.cliff.ranges[i], y = rb.cliff.ranges[i];
+          ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << where << " cliff beam " << i;
+        }
+      }
   }
-  EXPECT_GT(finite, 2000);
+  EXPECT_GT(finite, 4000);
 }
 
 TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
