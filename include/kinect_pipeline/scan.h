@@ -87,10 +87,12 @@ namespace detail
 {
 /**
  * The nearest of range[lo[j] .. hi[j]] into bins[j] (min with what it holds) for j < n, NaN ranges ignored, with
- * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j).
+ * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j); with counts, counts[j]
+ * also gains the number of finite ranges among them.
  * @return false (nothing done) where the CPU has no AVX-512 or setVectorPaths(false) turned it off
  */
-bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins);
+bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+                 std::int32_t* counts = nullptr);
 /**
  * Whether the hand-written AVX-512 paths (the scan's nearest range per bin, the 3x3 opening) may run where the CPU
  * has AVX-512 (default true); false forces the portable loops, which give the same bits. For tests: not to be
@@ -216,6 +218,8 @@ private:
   float distance_ = 1.0f, min_intensity_ = 0.0f;
   bool filter_ = false;
   std::vector<float> history_;  // window_ x beams_, NaN = not finite
+  std::vector<float> sum_;         // per beam: sum of the window's finite ranges (scratch of apply)
+  std::vector<std::int32_t> count_;  // per beam: their number
 };
 
 }  // namespace kinect_pipeline

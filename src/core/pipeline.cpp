@@ -1159,6 +1159,11 @@ void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& s
       if (detail::pullNearest(buf.range, buf.lo, buf.hi, n, acc.bins + plan.first))
         return;
     }
+    else if constexpr (std::is_same_v<Acc, MinCountInto>)
+    {
+      if (detail::pullNearest(buf.range, buf.lo, buf.hi, n, acc.bins + plan.first, acc.counts + plan.first))
+        return;
+    }
     pullBins(buf.range, buf.lo, buf.hi, n, plan.first, acc);
     return;
   }

@@ -252,7 +252,24 @@ inline float nearestOf(const float* range, int l, int h)
 // 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
 // two-register permute per pixel rank fetch them. (Fused with pixelLoop, the columns of a chunk come at the end of
 // a long chain of dependent operations and each branch on them waits for it: slower, by perf.)
-KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
+// With kCount, counts[j] also gains the number of finite ranges among bin j's pixels (MinCountInto's count).
+template <bool kCount>
+KP_TARGET_AVX512 inline __m512 rankMin(__m512 v, __mmask16 m, __m512 w0, __m512i idx, __m512 w1, __m512i& finite)
+{
+  const __m512 x = _mm512_permutex2var_ps(w0, idx, w1);
+  if constexpr (kCount)
+  {
+    const __mmask16 f = _mm512_mask_cmp_ps_mask(m, x, _mm512_set1_ps(std::numeric_limits<float>::infinity()),
+                                                _CMP_LT_OQ);  // NaN and +Inf: no
+    finite = _mm512_mask_add_epi32(finite, f, finite, _mm512_set1_epi32(1));
+  }
+  // min(x, v) takes v where x is NaN: NaN ranges are ignored, as nearestOf ignores them.
+  return _mm512_mask_min_ps(v, m, x, v);
+}
+
+template <bool kCount>
+KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n,
+                                 float* bins, std::int32_t* counts)
 {
   const __m512i one = _mm512_set1_epi32(1);
   const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
@@ -280,32 +297,40 @@ KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, con
       {
         const float v = nearestOf(range, lo[i], hi[i]);
         bins[i] = v < bins[i] ? v : bins[i];
+        if constexpr (kCount)
+          for (int u = lo[i]; u <= hi[i]; ++u)
+            counts[i] += range[u] < std::numeric_limits<float>::infinity();
       }
       continue;
     }
     const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
     __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
-    // min(x, v) takes v where x is NaN: NaN ranges are ignored, as nearestOf ignores them. The first two pixel
-    // ranks whatever the counts (most bins hold one or two): the loop's exit is then all but always at its start.
-    __m512 v = _mm512_mask_min_ps(inf, some, _mm512_permutex2var_ps(w0, idx, w1), inf);
+    __m512i finite = _mm512_setzero_si512();
+    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
+    // always at its start.
+    __m512 v = rankMin<kCount>(inf, some, w0, idx, w1, finite);
     idx = _mm512_add_epi32(idx, one);
-    v = _mm512_mask_min_ps(v, _mm512_cmpgt_epi32_mask(cnt, one), _mm512_permutex2var_ps(w0, idx, w1), v);
+    v = rankMin<kCount>(v, _mm512_cmpgt_epi32_mask(cnt, one), w0, idx, w1, finite);
     for (int c = 2;; ++c)
     {
       const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
       if (m == 0)
         break;
       idx = _mm512_add_epi32(idx, one);
-      v = _mm512_mask_min_ps(v, m, _mm512_permutex2var_ps(w0, idx, w1), v);
+      v = rankMin<kCount>(v, m, w0, idx, w1, finite);
     }
     if (full)
     {
       _mm512_storeu_ps(bins + j, _mm512_min_ps(v, _mm512_loadu_ps(bins + j)));
+      if constexpr (kCount)
+        _mm512_storeu_si512(counts + j, _mm512_add_epi32(finite, _mm512_loadu_si512(counts + j)));
     }
     else
     {
       const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
       _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
+      if constexpr (kCount)
+        _mm512_mask_storeu_epi32(counts + j, live, _mm512_add_epi32(finite, _mm512_maskz_loadu_epi32(live, counts + j)));
     }
   }
 }
@@ -434,12 +459,16 @@ void ScanProjector::planPixels(const SpanPlan& s, std::int32_t* lo, std::int32_t
     (roll ? pixelLoop<false, true> : pixelLoop<false, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
 }
 
-bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins)
+bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+                         std::int32_t* counts)
 {
 #if defined(KP_AVX512_PATHS)
   if (!vectorPaths())
     return false;
-  pullMin512(range, lo, hi, n, bins);
+  if (counts)
+    pullMin512<true>(range, lo, hi, n, bins, counts);
+  else
+    pullMin512<false>(range, lo, hi, n, bins, nullptr);
   return true;
 #else
   (void)range;
@@ -447,6 +476,7 @@ bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::
   (void)hi;
   (void)n;
   (void)bins;
+  (void)counts;
   return false;
 #endif
 }
@@ -489,6 +519,8 @@ void Confidence::configure(int beams, const Config& config)
     beams_ = beams;
     window_ = window;
     history_.assign(static_cast<std::size_t>(beams_) * window_, std::numeric_limits<float>::quiet_NaN());
+    sum_.assign(beams_, 0.0f);
+    count_.assign(beams_, 0);
     head_ = 0;
   }
   distance_ = static_cast<float>(config.confidence_distance);
@@ -502,6 +534,50 @@ void Confidence::reset()
   head_ = 0;
 }
 
+namespace
+{
+// Confidence::apply's sums over the window, beam by beam in the order of the window's slots (k outer, so that the
+// loop runs over beams in whole vectors), NaN slots left out.
+KP_CLONES void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
+                          std::int32_t* __restrict n)
+{
+  for (int b = 0; b < beams; ++b)
+  {
+    sum[b] = 0.0f;
+    n[b] = 0;
+  }
+  for (int k = 0; k < window; ++k)
+  {
+    const float* h = history + static_cast<std::size_t>(k) * beams;
+    for (int b = 0; b < beams; ++b)
+    {
+      const bool ok = h[b] == h[b];  // not NaN
+      sum[b] += ok ? h[b] : 0.0f;    // the history holds ranges > 0: adding +0 changes nothing
+      n[b] += ok;
+    }
+  }
+}
+
+// Intensity of each beam from its window's mean (see Confidence), NaN for filtered beams. Selects, no branches.
+KP_CLONES void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
+                             int beams, float distance, float min_intensity, bool filter, float* __restrict out)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  for (int b = 0; b < beams; ++b)
+  {
+    const float d = ranges[b];
+    const bool is_nan = d != d, is_inf = d == inf || d == -inf;
+    const float mean = sum[b] / static_cast<float>(n[b] > 0 ? n[b] : 1);  // n >= 1 where d is finite
+    float i = 1.0f - std::fabs(d - mean) / distance;
+    i = 0.0f < i ? i : 0.0f;  // std::min(1, std::max(0, i)), operand for operand
+    i = i < 1.0f ? i : 1.0f;
+    const float value = is_nan ? 0.0f : (is_inf ? 1.0f : i);
+    out[b] = value;
+    ranges[b] = (filter && !is_nan && !is_inf && value <= min_intensity) ? nan : d;
+  }
+}
+}  // namespace
+
 void Confidence::apply(std::vector<float>& ranges, std::vector<float>& intensities)
 {
   intensities.resize(ranges.size());
@@ -509,38 +585,9 @@ void Confidence::apply(std::vector<float>& ranges, std::vector<float>& intensiti
   for (int b = 0; b < beams_; ++b)
     slot[b] = std::isfinite(ranges[b]) ? ranges[b] : std::numeric_limits<float>::quiet_NaN();
   head_ = (head_ + 1) % window_;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  for (int b = 0; b < beams_; ++b)
-  {
-    const float d = ranges[b];
-    if (std::isnan(d))
-    {
-      intensities[b] = 0.0f;
-      continue;
-    }
-    if (std::isinf(d))
-    {
-      intensities[b] = 1.0f;
-      continue;
-    }
-    float sum = 0.0f;
-    int n = 0;
-    for (int k = 0; k < window_; ++k)
-    {
-      const float h = history_[static_cast<std::size_t>(k) * beams_ + b];
-      if (!std::isnan(h))
-      {
-        sum += h;
-        ++n;
-      }
-    }
-    const float mean = sum / n;  // n >= 1: this frame's finite range is in the window
-    float i = 1.0f - std::fabs(d - mean) / distance_;
-    i = std::min(1.0f, std::max(0.0f, i));
-    intensities[b] = i;
-    if (filter_ && i <= min_intensity_)
-      ranges[b] = nan;
-  }
+  windowSums(history_.data(), beams_, window_, sum_.data(), count_.data());
+  intensityLoop(ranges.data(), sum_.data(), count_.data(), beams_, distance_, min_intensity_, filter_,
+                intensities.data());
 }
 
 }  // namespace kinect_pipeline
