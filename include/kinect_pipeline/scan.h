@@ -190,6 +190,7 @@ private:
   std::vector<float> bx_, by_;                    // horizontal projection, per row
   float cx_ = 0.0f, fx_ = 1.0f;                   // column u of a ray: cx + fx * xn
   float inv_fx_ = 1.0f;
+  int coarse_margin_ = 1;  // spanPlan's bins either side of its coarse bounds
   std::vector<float> border_s_, border_c_;  // sin, cos of the bearing of bin k's lower border, k <= beams
   // At this pose: den = ay cos - ax sin of each border, and its crossing terms fx sin / den, fx cos / den.
   std::vector<float> border_den_, border_p_, border_q_;

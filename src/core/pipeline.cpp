@@ -60,6 +60,8 @@ struct RowCounts
 {
   int kept = 0, invalid = 0, floor = 0, ceiling = 0;
   int candidates = 0;  // pixels flagged for the rescue (classifyRow)
+  // First and last kept and below-floor column where the labelling found them on its way (-1: not known).
+  int kept_first = -1, kept_last = -1, below_first = -1, below_last = -1;
 };
 
 /**
@@ -606,6 +608,17 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
       *c = _mm512_setzero_si512();
     }
   };
+  // Where kept and below-floor pixels first and last appear: the first column, and the last block's mask.
+  int kept_first = -1, below_first = -1, kept_at = -1, below_at = -1;
+  std::uint64_t kept_mask = 0, below_mask = 0;
+  const auto track = [](Mask m, int u, int& first, int& at, std::uint64_t& last) {
+    if (m == 0)
+      return;
+    if (first < 0)
+      first = u + __builtin_ctzll(m);
+    at = u;
+    last = m;
+  };
   // One block of L pixels from u (live: the lanes inside the row; counted: those not counted yet).
   const auto block = [&](int u, Mask live, Mask counted) KP_TARGET_AVX512 {
     __m512i v, raw = _mm512_setzero_si512();
@@ -654,6 +667,9 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
     count(c1, g1 & counted);
     count(c2, g2 & counted);
     count(ci, inv & counted);
+    track(static_cast<Mask>(~g1 & live), u, kept_first, kept_at, kept_mask);  // kept: below t1
+    track(static_cast<Mask>(_mm512_cmpeq_epi8_mask(l, _mm512_set1_epi8(kBelowFloor)) & live), u, below_first, below_at,
+          below_mask);
     if constexpr (kRescue)
     {
       const Mask kb = _mm512_cmpeq_epi8_mask(l, _mm512_set1_epi8(kKept)) |
@@ -695,6 +711,10 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
   c.floor = s.l1 == kFloor ? n1 - n2 : 0;
   c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
   c.candidates = nc;
+  c.kept_first = kept_first;
+  c.kept_last = kept_at < 0 ? -1 : kept_at + 63 - __builtin_clzll(kept_mask);
+  c.below_first = below_first;
+  c.below_last = below_at < 0 ? -1 : below_at + 63 - __builtin_clzll(below_mask);
   return c;
 }
 #pragma GCC diagnostic pop
@@ -1386,8 +1406,16 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
             std::uint8_t* cand = s.cand.data();
             c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
             if (c.candidates > 0)
+            {
+              const int kept = c.kept, below = w - c.kept - c.invalid - c.floor - c.ceiling;
               rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
                                dst, c);
+              // Relabelled pixels may have been the first or last of their label: look again.
+              if (c.kept != kept)
+                c.kept_first = c.kept_last = -1;
+              if (w - c.kept - c.invalid - c.floor - c.ceiling != below)
+                c.below_first = c.below_last = -1;
+            }
             done = true;
           }
         }
@@ -1415,7 +1443,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (cliff && below > 0)
       {
         // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
-        const int a = firstLabelled(lab, w, kBelowFloor), b = lastLabelled(lab, w, kBelowFloor);
+        const int a = c.below_first >= 0 ? c.below_first : firstLabelled(lab, w, kBelowFloor);
+        const int b = c.below_last >= 0 ? c.below_last : lastLabelled(lab, w, kBelowFloor);
         belowFloorDepth<T>(src, lab, a, b, scale, z);
         binSpan(r, a, b, buf, SpanDepths{}, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
       }
@@ -1424,7 +1453,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       if (c.kept == 0)
         continue;
       // Only the span from the first to the last kept pixel can reach a bin.
-      const int a = firstLabelled(lab, w, kKept), b = lastLabelled(lab, w, kKept);
+      const int a = c.kept_first >= 0 ? c.kept_first : firstLabelled(lab, w, kKept);
+      const int b = c.kept_last >= 0 ? c.kept_last : lastLabelled(lab, w, kKept);
       spans_[2 * r] = a;
       spans_[2 * r + 1] = b;
       if (column)
