@@ -81,6 +81,14 @@ struct ValueTerms
   static constexpr int kValueWindow = 4;
   double d_max = 0.0, t_max = 0.0;  ///< depth and threshold of the largest value [m]
 };
+
+/**
+ * The fewest values an 8-bit pixel's raw value must lie above its opened value for the rescue (the raw depth
+ * deciding where the opening moved a pixel) to relabel it, where the raw values it may relabel are t1 and above:
+ * pixels nearer than that are not looked at. @param table the threshold of each value (ThresholdLut::valueTable)
+ * @param nondecreasing whether the table does not decrease (else 1: every raw value above the opened one)
+ */
+int rescueMove(const float* table, bool nondecreasing, int t1, float scale);
 }  // namespace detail
 
 /**

@@ -223,7 +223,28 @@ struct ValueSplit
 {
   int t1 = 0, t2 = 0;
   std::uint8_t l1 = 0, l2 = 0;
+  int min_move = 1;  // the rescue's flags: raw values at least this many values above the opened one (rescueMove)
 };
+
+/**
+ * The fewest values an 8-bit pixel's raw value must lie above its opened value for the rescue to relabel it, when
+ * the raw values it may relabel are those from t1 up (labelled floor or above the ceiling plane): the rescue needs
+ * fl(fl(raw s) - fl(v s)) > t(raw) >= t(t1) (the table does not decrease), and raw - v <= k - 1 gives at most
+ * (k - 1 + 510 u) s (u = 2^-24) on the left. Most flagged pixels are one value of noise: where t(t1) exceeds a
+ * value's step by more than that, they need not be looked at. 1 (any raw value above) where that does not hold.
+ */
+}  // namespace
+
+int detail::rescueMove(const float* table, bool nondecreasing, int t1, float scale)
+{
+  if (!nondecreasing || t1 < 0 || t1 > 254)
+    return 1;
+  const double steps = static_cast<double>(table[t1]) / scale - 1e-4;  // the rounding's 3.1e-5 and a margin
+  return steps >= 1.0 ? static_cast<int>(std::floor(steps)) + 1 : 1;
+}
+
+namespace
+{
 
 /**
  * The table's terms of ValueProof over the values 0 .. no-return - 1, with d = fl(v scale) as the pixels get it.
@@ -504,6 +525,7 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
   const T fix = static_cast<T>(l1 + l2 - kInvalid);
   const bool rescuable = s.t1 < none && (s.l1 == kFloor || s.l1 == kAboveCeiling);
   const T rt1 = rescuable ? t1 : none, rt2 = t2;
+  const int move = s.min_move;
   int n1 = 0, n2 = 0, ni = 0, nc = 0;
   for (int u0 = 0; u0 < w; u0 += 128)
   {
@@ -525,7 +547,7 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
         c2 += g2;
         ci += inv;
         const T raw = Tr::map(in[u]);
-        const T f = static_cast<T>(((l == kKept) | (l == kBelowFloor)) & (raw > v) & (raw >= rt1) & (raw < rt2));
+        const T f = static_cast<T>(((l == kKept) | (l == kBelowFloor)) & (raw - v >= move) & (raw >= rt1) & (raw < rt2));
         cand[u] = static_cast<std::uint8_t>(f);
         cc += f;
       }
@@ -589,7 +611,7 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
     return k8 ? _mm512_set1_epi8(static_cast<char>(x)) : _mm512_set1_epi16(static_cast<short>(x));
   };
   const __m512i t1 = splat(s.t1), t2 = splat(s.t2), vnone = splat(none), rt1 = splat(rescuable ? s.t1 : none);
-  const __m512i minvalid = splat(Tr::kMinValid);
+  const __m512i minvalid = splat(Tr::kMinValid), move1 = splat(s.min_move - 1);
   // Counts per lane (a masked subtraction of -1 adds one, in the mask registers: moving masks to general registers
   // for popcounts costs more on some CPUs), summed per row and every 255 blocks (8-bit lanes).
   const __m512i minus1 = _mm512_set1_epi32(-1);
@@ -635,7 +657,7 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
         raw = _mm512_maskz_loadu_epi8(live, in + u);
         unknown = _mm512_cmplt_epu8_mask(raw, minvalid);
         raw = _mm512_mask_mov_epi8(raw, unknown, vnone);  // DepthTraits::map
-        above = _mm512_cmpgt_epu8_mask(raw, v);
+        above = _mm512_cmpgt_epu8_mask(raw, _mm512_adds_epu8(v, move1));  // raw - v >= min_move
         inband = _mm512_cmpge_epu8_mask(raw, rt1) & _mm512_cmplt_epu8_mask(raw, t2);
       }
     }
@@ -651,7 +673,7 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
         raw = _mm512_maskz_loadu_epi16(live, in + u);
         unknown = _mm512_cmplt_epu16_mask(raw, minvalid);
         raw = _mm512_mask_mov_epi16(raw, unknown, vnone);
-        above = _mm512_cmpgt_epu16_mask(raw, v);
+        above = _mm512_cmpgt_epu16_mask(raw, _mm512_adds_epu16(v, move1));
         inband = _mm512_cmpge_epu16_mask(raw, rt1) & _mm512_cmplt_epu16_mask(raw, t2);
       }
     }
@@ -1403,6 +1425,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
           {
+            if constexpr (std::is_same_v<T, std::uint8_t>)
+              split.min_move = detail::rescueMove(lut.valueTable(), value_terms_.nondecreasing, split.t1, scale);
             std::uint8_t* cand = s.cand.data();
             c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
             if (c.candidates > 0)
