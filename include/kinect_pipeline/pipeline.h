@@ -83,12 +83,14 @@ struct ValueTerms
 };
 
 /**
- * The fewest values an 8-bit pixel's raw value must lie above its opened value for the rescue (the raw depth
- * deciding where the opening moved a pixel) to relabel it, where the raw values it may relabel are t1 and above:
- * pixels nearer than that are not looked at. @param table the threshold of each value (ThresholdLut::valueTable)
+ * The fewest values an 8- or 16-bit pixel's raw value must lie above its opened value for the rescue (the raw
+ * depth deciding where the opening moved a pixel) to relabel it, where the raw values it may relabel are t1 and
+ * above: pixels nearer than that are not looked at.
+ * @param table the threshold of each value (ThresholdLut::valueTable)
  * @param nondecreasing whether the table does not decrease (else 1: every raw value above the opened one)
+ * @param scale metres per value, @param no_return the encoding's no-return value (255, 65535)
  */
-int rescueMove(const float* table, bool nondecreasing, int t1, float scale);
+int rescueMove(const float* table, bool nondecreasing, int t1, float scale, int no_return);
 }  // namespace detail
 
 /**

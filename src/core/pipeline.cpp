@@ -227,19 +227,19 @@ struct ValueSplit
 };
 
 /**
- * The fewest values an 8-bit pixel's raw value must lie above its opened value for the rescue to relabel it, when
- * the raw values it may relabel are those from t1 up (labelled floor or above the ceiling plane): the rescue needs
- * fl(fl(raw s) - fl(v s)) > t(raw) >= t(t1) (the table does not decrease), and raw - v <= k - 1 gives at most
- * (k - 1 + 510 u) s (u = 2^-24) on the left. Most flagged pixels are one value of noise: where t(t1) exceeds a
- * value's step by more than that, they need not be looked at. 1 (any raw value above) where that does not hold.
+ * detail::rescueMove: the rescue needs fl(fl(raw s) - fl(v s)) > t(raw) >= t(t1) (the table does not decrease, and
+ * it is what the rescue reads: the 8-bit table, or the 16-bit one's forDepth of each value), and raw - v <= k - 1
+ * gives at most (k - 1 + 4 u no_return) s on the left (u = 2^-24; three roundings of values up to no_return).
+ * Most flagged pixels are a value or a few of noise: where t(t1) is more than that, they need not be looked at.
  */
 }  // namespace
 
-int detail::rescueMove(const float* table, bool nondecreasing, int t1, float scale)
+int detail::rescueMove(const float* table, bool nondecreasing, int t1, float scale, int no_return)
 {
-  if (!nondecreasing || t1 < 0 || t1 > 254)
+  if (!nondecreasing || t1 < 0 || t1 >= no_return)
     return 1;
-  const double steps = static_cast<double>(table[t1]) / scale - 1e-4;  // the rounding's 3.1e-5 and a margin
+  const double rounding = 4.0 * no_return / 16777216.0 + 1e-4;  // in values, with a margin
+  const double steps = static_cast<double>(table[t1]) / scale - rounding;
   return steps >= 1.0 ? static_cast<int>(std::floor(steps)) + 1 : 1;
 }
 
@@ -1425,8 +1425,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
           {
-            if constexpr (std::is_same_v<T, std::uint8_t>)
-              split.min_move = detail::rescueMove(lut.valueTable(), value_terms_.nondecreasing, split.t1, scale);
+            split.min_move =
+                detail::rescueMove(lut.valueTable(), value_terms_.nondecreasing, split.t1, scale, Tr::kNoReturn);
             std::uint8_t* cand = s.cand.data();
             c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
             if (c.candidates > 0)

@@ -606,36 +606,40 @@ TEST(PipelineEdge, VectorAndPortablePathsGiveTheSameFrame)
   EXPECT_GT(finite, 4000);
 }
 
-// The rescue looks only at 8-bit pixels whose raw value lies rescueMove values or more above the opened one: every
-// pair nearer than that fails the rescue's own test, fl(fl(raw s) - fl(v s)) > t(raw), for every raw value from t1
-// up, with the default curve and others, at several max_depth values. And the bound skips something.
+// The rescue looks only at pixels whose raw value lies rescueMove values or more above the opened one: every pair
+// nearer than that fails the rescue's own test, fl(fl(raw s) - fl(v s)) > t(raw), for raw values from t1 up, with
+// the default curve and others, at several max_depth values (8-bit: every pair; 16-bit: a sample up to 60 m).
+// And the bound skips something.
 TEST(PipelineEdge, RescueSkipsOnlyPixelsItWouldNotRelabel)
 {
   int skipping = 0;
-  for (const double max_depth : {4.5, 8.0, 12.0})
-    for (const auto& curve : {defaultThresholdCurve(), std::vector<CurvePoint>{{0.5, 0.01}, {12.0, 0.4}},
-                              std::vector<CurvePoint>{{0.5, 0.2}, {12.0, 0.2}}})
-    {
-      ThresholdLut lut;
-      lut.build(curve, Encoding::kMono8, max_depth);
-      const float* table = lut.valueTable();
-      const float s = static_cast<float>(max_depth / 255.0);
-      for (int t1 = 2; t1 <= 254; ++t1)
+  for (const Encoding enc : {Encoding::kMono8, Encoding::kMono16})
+    for (const double max_depth : {4.5, 8.0, 12.0})
+      for (const auto& curve : {defaultThresholdCurve(), std::vector<CurvePoint>{{0.5, 0.01}, {12.0, 0.4}},
+                                std::vector<CurvePoint>{{0.5, 0.2}, {12.0, 0.2}}})
       {
-        const int k = detail::rescueMove(table, true, t1, s);
-        ASSERT_GE(k, 1);
-        skipping += k > 1;
-        for (int raw = t1; raw <= 254; ++raw)
-          for (int v = std::max(2, raw - k + 1); v < raw; ++v)
-          {
-            const float moved = static_cast<float>(raw) * s - static_cast<float>(v) * s;
-            ASSERT_FALSE(moved > table[raw]) << "max_depth " << max_depth << " t1 " << t1 << " raw " << raw << " v "
-                                             << v << " k " << k;
-          }
+        ThresholdLut lut;
+        lut.build(curve, enc, max_depth);
+        const float* table = lut.valueTable();
+        const bool eight = enc == Encoding::kMono8;
+        const float s = eight ? static_cast<float>(max_depth / 255.0) : 0.001f;
+        const int none = eight ? 255 : 65535, stride = eight ? 1 : 997;
+        for (int t1 = 2; t1 < none; t1 += stride)
+        {
+          const int k = detail::rescueMove(table, true, t1, s, none);
+          ASSERT_GE(k, 1);
+          skipping += k > 1;
+          for (int raw = t1; raw < std::min(none, t1 + 3000); raw += eight ? 1 : 7)
+            for (int v = std::max(1, raw - k + 1); v < raw; ++v)
+            {
+              const float moved = static_cast<float>(raw) * s - static_cast<float>(v) * s;
+              ASSERT_FALSE(moved > table[raw]) << toString(enc) << " max_depth " << max_depth << " t1 " << t1
+                                               << " raw " << raw << " v " << v << " k " << k;
+            }
+        }
+        EXPECT_EQ(detail::rescueMove(table, false, 100, s, none), 1);  // a table that may decrease: no bound
       }
-      EXPECT_EQ(detail::rescueMove(table, false, 100, s), 1);  // a table that may decrease: no bound
-    }
-  EXPECT_GT(skipping, 500);
+  EXPECT_GT(skipping, 1000);
 }
 
 TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
