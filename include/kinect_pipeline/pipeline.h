@@ -84,13 +84,17 @@ struct ValueTerms
 
 /**
  * The fewest values an 8- or 16-bit pixel's raw value must lie above its opened value for the rescue (the raw
- * depth deciding where the opening moved a pixel) to relabel it, where the raw values it may relabel are t1 and
- * above: pixels nearer than that are not looked at.
- * @param table the threshold of each value (ThresholdLut::valueTable)
- * @param nondecreasing whether the table does not decrease (else 1: every raw value above the opened one)
- * @param scale metres per value, @param no_return the encoding's no-return value (255, 65535)
+ * depth deciding where the opening moved a pixel) to relabel it, when the thresholds of the raw values it may
+ * relabel are t or more: pixels nearer than that are not looked at. The rescue needs fl(fl(raw s) - fl(v s)) >
+ * t(raw) >= t, and raw - v <= k - 1 gives at most (k - 1 + 4 u no_return) s on the left (u = 2^-24: three roundings
+ * of values up to no_return); the float product t / s, a few roundings off, is taken 1e-6 smaller (relative).
+ * @param t [m], @param inv_scale values per metre (1 / s), @param no_return the encoding's no-return value
  */
-int rescueMove(const float* table, bool nondecreasing, int t1, float scale, int no_return);
+inline int rescueMove(float t, float inv_scale, int no_return)
+{
+  const float steps = t * inv_scale * (1.0f - 1e-6f) - (4.0f * static_cast<float>(no_return) / 16777216.0f + 1e-4f);
+  return steps >= 1.0f ? static_cast<int>(steps) + 1 : 1;  // steps >= 1: the conversion is its floor
+}
 }  // namespace detail
 
 /**

@@ -226,25 +226,6 @@ struct ValueSplit
   int min_move = 1;  // the rescue's flags: raw values at least this many values above the opened one (rescueMove)
 };
 
-/**
- * detail::rescueMove: the rescue needs fl(fl(raw s) - fl(v s)) > t(raw) >= t(t1) (the table does not decrease, and
- * it is what the rescue reads: the 8-bit table, or the 16-bit one's forDepth of each value), and raw - v <= k - 1
- * gives at most (k - 1 + 4 u no_return) s on the left (u = 2^-24; three roundings of values up to no_return).
- * Most flagged pixels are a value or a few of noise: where t(t1) is more than that, they need not be looked at.
- */
-}  // namespace
-
-int detail::rescueMove(const float* table, bool nondecreasing, int t1, float scale, int no_return)
-{
-  if (!nondecreasing || t1 < 0 || t1 >= no_return)
-    return 1;
-  const double rounding = 4.0 * no_return / 16777216.0 + 1e-4;  // in values, with a margin
-  const double steps = static_cast<double>(table[t1]) / scale - rounding;
-  return steps >= 1.0 ? static_cast<int>(std::floor(steps)) + 1 : 1;
-}
-
-namespace
-{
 
 /**
  * The table's terms of ValueProof over the values 0 .. no-return - 1, with d = fl(v scale) as the pixels get it.
@@ -1302,7 +1283,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     const int cv_shape = config_.open_kernel_shape == KernelShape::kCross ? cv::MORPH_CROSS : cv::MORPH_ELLIPSE;
     cv::morphologyEx(mapped_, opened_, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(ksize, ksize)));
   }
-  const float scale = depthScale<T>(config_.max_depth);
+  const float scale = depthScale<T>(config_.max_depth), inv_scale = 1.0f / scale;
   const std::vector<float>& colterm = planes_.colTerm();
   const float* col = colterm.data();
   const float* rowterm = planes_.rowTerm().data();
@@ -1425,8 +1406,10 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
           const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
           if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
           {
-            split.min_move =
-                detail::rescueMove(lut.valueTable(), value_terms_.nondecreasing, split.t1, scale, Tr::kNoReturn);
+            // The raw values the rescue may relabel are t1 and above; t(raw) >= t(t1) where the table does not
+            // decrease.
+            if (value_terms_.nondecreasing && split.t1 < Tr::kNoReturn)
+              split.min_move = detail::rescueMove(lut.valueTable()[split.t1], inv_scale, Tr::kNoReturn);
             std::uint8_t* cand = s.cand.data();
             c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
             if (c.candidates > 0)
