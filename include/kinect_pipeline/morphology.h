@@ -31,6 +31,12 @@ void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst);
 /** Same as rectRow<T, true> but maps unknown pixels of @p src to DepthTraits<T>::kNoReturn first. */
 template <typename T>
 void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst);
+/**
+ * rectRow<T, false> of a 3x3 kernel from the three rows given (a above b, c below; at the image's top and bottom
+ * edges pass b again): for dilating rows whose eroded neighbours are held elsewhere than in an image.
+ */
+template <typename T>
+void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst);
 }  // namespace detail
 
 }  // namespace kinect_pipeline

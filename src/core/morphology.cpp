@@ -243,6 +243,28 @@ KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 }
 
 template <typename T>
+void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+{
+  if (w < 3)
+  {
+    // box3Row needs three columns: the general path of a one-row image of the three rows' maxima.
+    T col[2];
+    for (int u = 0; u < w; ++u)
+      col[u] = pick<false>(pick<false>(a[u], b[u]), c[u]);
+    horizontal<T, false>(col, w, 1, dst);
+    return;
+  }
+#if defined(KP_AVX512_PATHS)
+  if constexpr (!std::is_floating_point_v<T>)
+  {
+    if (w >= Box3Vector<T, false, false>::kLanes && vectorPaths())
+      return Box3Vector<T, false, false>::row(a, b, c, w, dst);
+  }
+#endif
+  box3Row<T, false, false>(a, b, c, w, dst);
+}
+
+template <typename T>
 KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   using Tr = DepthTraits<T>;
@@ -267,7 +289,8 @@ KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst
 #define KP_INSTANTIATE(T)                                                       \
   template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*);             \
   template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*);            \
-  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*);
+  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*);           \
+  template void dilate3Rows<T>(const T*, const T*, const T*, int, T*);
 KP_INSTANTIATE(std::uint8_t)
 KP_INSTANTIATE(std::uint16_t)
 KP_INSTANTIATE(float)

@@ -939,6 +939,8 @@ struct ScanGeometry
 struct Pipeline::Scratch
 {
   std::vector<float> row, tmp;   // one image row of the input's type (floats are the widest)
+  std::vector<float> ring;       // the 3x3 opening: three eroded rows of the input's type, row j in slot j % 3
+  std::array<int, 3> ring_rows{};  // the row each slot holds (-1: none this frame)
   std::vector<float> t;          // threshold of each pixel of the row [m]
   std::vector<float> z;          // depth of kept pixels of the row [m], +Inf for removed ones
   std::vector<float> range;      // beam range of each pixel of the row [m], +Inf for removed ones
@@ -1004,6 +1006,7 @@ void Pipeline::prepareBuffers(int threads)
     Scratch& s = *scratch_[i];
     s.row.resize(w);
     s.tmp.resize(w);
+    s.ring.resize(3 * w);
     s.t.resize(w);
     s.z.resize(w);
     s.range.resize(w + 32);  // the pull's vector loads read up to 31 past a span's last pixel
@@ -1261,15 +1264,18 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   const bool rect = config_.open_kernel_shape == KernelShape::kRect;
 
   // Stage 1: unknown -> no return, then the opening's erosion (or the whole OpenCV opening for other shapes).
-  // Stage 2a, rows in parallel: dilation, plane removal, labels, cleaned depth and each row's kept span.
-  // Stage 2b, columns in parallel: beam binning.
+  // Stage 2, rows in parallel: dilation, plane removal, labels, cleaned depth, each row's kept span and its beam
+  // binning into the thread's bins (the column projection: the thread's column minima, binned after the rows).
   // One parallel region for the rectangular opening's erosion and stage 2 (each fork costs a wake-up).
   auto t1 = Clock::now();
-  if (rad > 0 && rect)
+  // The 3x3 opening streams: each thread erodes the rows its rows' dilation needs, as it goes, into a ring of three
+  // rows (two more per chunk of rows than a whole eroded image, but no pass and no wait between the two).
+  const bool stream = rad == 1 && rect;
+  if (rad > 0 && rect && !stream)
   {
     eroded_.create(depth.size(), depth.type());
   }
-  else if (rad > 0)
+  else if (rad > 0 && !rect)
   {
     mapped_.create(depth.size(), depth.type());
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -1328,7 +1334,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 #pragma omp parallel num_threads(threads)
   {
     Scratch& s = teamScratch(team);
-    if (rad > 0 && rect)
+    s.ring_rows.fill(-1);
+    if (rad > 0 && rect && !stream)
     {
 #pragma omp for schedule(static)
       for (int r = 0; r < h; ++r)
@@ -1373,7 +1380,24 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
     for (int r = 0; r < h; ++r)
     {
       const T* src;
-      if (rad > 0 && rect)
+      if (stream)
+      {
+        const T* e[3];  // eroded rows r - 1, r, r + 1 (the row itself at the image's edges)
+        for (int d = 0; d < 3; ++d)
+        {
+          const int j = std::min(std::max(r + d - 1, 0), h - 1), slot = j % 3;
+          T* ring = reinterpret_cast<T*>(s.ring.data()) + static_cast<std::size_t>(slot) * w;
+          if (s.ring_rows[slot] != j)
+          {
+            detail::erodeMappedRow<T>(depth, j, 1, tmp, ring);
+            s.ring_rows[slot] = j;
+          }
+          e[d] = ring;
+        }
+        detail::dilate3Rows<T>(e[0], e[1], e[2], w, row);
+        src = row;
+      }
+      else if (rad > 0 && rect)
       {
         detail::rectRow<T, false>(eroded_, r, rad, tmp, row);
         src = row;
@@ -1471,25 +1495,19 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
         keptDepth<T>(dst, a, b, scale, z);
         minInto(z, a, b, s.colmin.data());
       }
+      else
+      {
+        // The horizontal projection bins each row on its own: while the row is at hand, into this thread's bins.
+        binSpan(r, a, b, buf, KeptDepths<T>{dst, scale}, MinInto{bins});
+      }
     }
-    // (implicit barrier: 2b reads every row)
+    // (implicit barrier: the column projection's bins need every row's column minima)
 
     if (column)
     {
       // The column projection's bin and range depend on the column only: bin the columns' nearest depths once.
       projector_.spanBins(0, 0, w - 1, s.colmin.data(), fb, s.key.data(), range);
       binCentres(fb, range, 0, w - 1, beams, half_turn_bins, s.key.data(), s.gaps.data(), MinInto{bins});
-    }
-    else
-    {
-#pragma omp for schedule(dynamic, 8)
-      for (int r = 0; r < h; ++r)
-      {
-        const int a = spans_[2 * r], b = spans_[2 * r + 1];
-        if (a > b)
-          continue;
-        binSpan(r, a, b, buf, KeptDepths<T>{out.depth.ptr<T>(r), scale}, MinInto{bins});
-      }
     }
   }
   out.times.erode = std::chrono::duration<double, std::milli>(t2 - t1).count();
