@@ -155,6 +155,9 @@ private:
   Scratch& teamScratch(int& team);
   template <typename Acc, typename Src>
   void binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& src, const Acc& acc) const;
+  template <typename Acc, typename Src>
+  void binSpan(int r, int a, int b, int n, const SpanPlan& plan, const SpanBuffers& buf, const Src& src,
+               const Acc& acc) const;
   template <typename T>
   void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
   void prepareBuffers(int threads);

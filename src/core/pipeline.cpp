@@ -44,6 +44,9 @@ int threadId()
 #endif
 }
 
+// Rows of a chunk of the row loop (a thread's unit of work): their bins are planned together.
+constexpr int kRowChunk = 8;
+
 // Metres per unit of each encoding (8-bit: max_depth / 255).
 template <typename T>
 float depthScale(double max_depth)
@@ -1174,6 +1177,14 @@ void Pipeline::binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& s
 {
   SpanPlan plan;
   const int n = projector_.spanPlan(r, a, b, plan);
+  binSpan(r, a, b, n, plan, buf, src, acc);
+}
+
+/** binSpan with the span's plan and its ScanProjector::spanPlan result n already found. */
+template <typename Acc, typename Src>
+void Pipeline::binSpan(int r, int a, int b, int n, const SpanPlan& plan, const SpanBuffers& buf, const Src& src,
+                       const Acc& acc) const
+{
   if (n == 0)
     return;
   if (n > 0)
@@ -1376,130 +1387,143 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       }
     }
 
-#pragma omp for schedule(dynamic, 8)
-    for (int r = 0; r < h; ++r)
+#pragma omp for schedule(dynamic, 1)
+    for (int chunk = 0; chunk < (h + kRowChunk - 1) / kRowChunk; ++chunk)
     {
-      const T* src;
-      if (stream)
+      const int r0 = chunk * kRowChunk, r1 = std::min(h, r0 + kRowChunk);
+      for (int r = r0; r < r1; ++r)
       {
-        const T* e[3];  // eroded rows r - 1, r, r + 1 (the row itself at the image's edges)
-        for (int d = 0; d < 3; ++d)
+        const T* src;
+        if (stream)
         {
-          const int j = std::min(std::max(r + d - 1, 0), h - 1), slot = j % 3;
-          T* ring = reinterpret_cast<T*>(s.ring.data()) + static_cast<std::size_t>(slot) * w;
-          if (s.ring_rows[slot] != j)
+          const T* e[3];  // eroded rows r - 1, r, r + 1 (the row itself at the image's edges)
+          for (int d = 0; d < 3; ++d)
           {
-            detail::erodeMappedRow<T>(depth, j, 1, tmp, ring);
-            s.ring_rows[slot] = j;
-          }
-          e[d] = ring;
-        }
-        detail::dilate3Rows<T>(e[0], e[1], e[2], w, row);
-        src = row;
-      }
-      else if (rad > 0 && rect)
-      {
-        detail::rectRow<T, false>(eroded_, r, rad, tmp, row);
-        src = row;
-      }
-      else if (rad > 0)
-      {
-        src = opened_.ptr<T>(r);
-      }
-      else
-      {
-        const T* in = depth.ptr<T>(r);
-        for (int u = 0; u < w; ++u)
-          row[u] = Tr::map(in[u]);
-        src = row;
-      }
-
-      T* dst = out.depth.ptr<T>(r);
-      std::uint8_t* lab = out.labels.ptr<std::uint8_t>(r);
-      RowCounts c;
-      bool done = false;
-      if constexpr (kIntegerDepth)
-      {
-        if (by_value)
-        {
-          // Split over every value but no return, whichever the row holds: the thresholds of a search over the
-          // row's own values would be these, clamped to them (the labels are monotone in the value), and the
-          // rescue below looks at raw values, which may lie above the opened row's.
-          const int lo = 0, hi = Tr::kNoReturn - 1;
-          ValueSplit split;
-          const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
-          if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
-          {
-            // The raw values the rescue may relabel are t1 and above; t(raw) >= t(t1) where the table does not
-            // decrease.
-            if (value_terms_.nondecreasing && split.t1 < Tr::kNoReturn)
-              split.min_move = detail::rescueMove(lut.valueTable()[split.t1], inv_scale, Tr::kNoReturn);
-            std::uint8_t* cand = s.cand.data();
-            c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
-            if (c.candidates > 0)
+            const int j = std::min(std::max(r + d - 1, 0), h - 1), slot = j % 3;
+            T* ring = reinterpret_cast<T*>(s.ring.data()) + static_cast<std::size_t>(slot) * w;
+            if (s.ring_rows[slot] != j)
             {
-              const int kept = c.kept, below = w - c.kept - c.invalid - c.floor - c.ceiling;
-              rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
-                               dst, c);
-              // Relabelled pixels may have been the first or last of their label: look again.
-              if (c.kept != kept)
-                c.kept_first = c.kept_last = -1;
-              if (w - c.kept - c.invalid - c.floor - c.ceiling != below)
-                c.below_first = c.below_last = -1;
+              detail::erodeMappedRow<T>(depth, j, 1, tmp, ring);
+              s.ring_rows[slot] = j;
             }
-            done = true;
+            e[d] = ring;
+          }
+          detail::dilate3Rows<T>(e[0], e[1], e[2], w, row);
+          src = row;
+        }
+        else if (rad > 0 && rect)
+        {
+          detail::rectRow<T, false>(eroded_, r, rad, tmp, row);
+          src = row;
+        }
+        else if (rad > 0)
+        {
+          src = opened_.ptr<T>(r);
+        }
+        else
+        {
+          const T* in = depth.ptr<T>(r);
+          for (int u = 0; u < w; ++u)
+            row[u] = Tr::map(in[u]);
+          src = row;
+        }
+
+        T* dst = out.depth.ptr<T>(r);
+        std::uint8_t* lab = out.labels.ptr<std::uint8_t>(r);
+        RowCounts c;
+        bool done = false;
+        if constexpr (kIntegerDepth)
+        {
+          if (by_value)
+          {
+            // Split over every value but no return, whichever the row holds: the thresholds of a search over the
+            // row's own values would be these, clamped to them (the labels are monotone in the value), and the
+            // rescue below looks at raw values, which may lie above the opened row's.
+            const int lo = 0, hi = Tr::kNoReturn - 1;
+            ValueSplit split;
+            const ValueLabeler<T> label{values.data(), lut.valueTable(), colc.data(), rowterm[r], scale, floor_h, ceil_h};
+            if (splitValues<T>(label, proof, lo, hi, s.vlab.data(), s.vdst.data(), split))
+            {
+              // The raw values the rescue may relabel are t1 and above; t(raw) >= t(t1) where the table does not
+              // decrease.
+              if (value_terms_.nondecreasing && split.t1 < Tr::kNoReturn)
+                split.min_move = detail::rescueMove(lut.valueTable()[split.t1], inv_scale, Tr::kNoReturn);
+              std::uint8_t* cand = s.cand.data();
+              c = splitRowFast<T>(src, w, split, lab, dst, rad > 0 ? depth.ptr<T>(r) : nullptr, cand);
+              if (c.candidates > 0)
+              {
+                const int kept = c.kept, below = w - c.kept - c.invalid - c.floor - c.ceiling;
+                rescueCandidates(cand, depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w, lab,
+                                 dst, c);
+                // Relabelled pixels may have been the first or last of their label: look again.
+                if (c.kept != kept)
+                  c.kept_first = c.kept_last = -1;
+                if (w - c.kept - c.invalid - c.floor - c.ceiling != below)
+                  c.below_first = c.below_last = -1;
+              }
+              done = true;
+            }
           }
         }
-      }
-      if (!done)
-      {
-        thresholdRow<T>(src, lut, scale, w, s.t.data());
-        if (rad > 0)
-          c = classifyRow<T, true>(src, depth.ptr<T>(r), s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab,
-                                   dst, s.cand.data());
-        else
-          c = classifyRow<T, false>(src, nullptr, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst,
-                                    nullptr);
-        if (c.candidates > 0)
-          rescueCandidates<T>(s.cand.data(), depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w,
-                              lab, dst, c);
-      }
+        if (!done)
+        {
+          thresholdRow<T>(src, lut, scale, w, s.t.data());
+          if (rad > 0)
+            c = classifyRow<T, true>(src, depth.ptr<T>(r), s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab,
+                                     dst, s.cand.data());
+          else
+            c = classifyRow<T, false>(src, nullptr, s.t.data(), col, rowterm[r], scale, floor_h, ceil_h, w, lab, dst,
+                                      nullptr);
+          if (c.candidates > 0)
+            rescueCandidates<T>(s.cand.data(), depth.ptr<T>(r), src, lut, col, rowterm[r], scale, floor_h, ceil_h, w,
+                                lab, dst, c);
+        }
 
-      s.counts[kKept] += c.kept;
-      s.counts[kInvalid] += c.invalid;
-      s.counts[kFloor] += c.floor;
-      s.counts[kAboveCeiling] += c.ceiling;
-      const int below = w - c.kept - c.invalid - c.floor - c.ceiling;
-      s.counts[kBelowFloor] += below;
-      if (cliff && below > 0)
-      {
-        // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
-        const int a = c.below_first >= 0 ? c.below_first : firstLabelled(lab, w, kBelowFloor);
-        const int b = c.below_last >= 0 ? c.below_last : lastLabelled(lab, w, kBelowFloor);
-        belowFloorDepth<T>(src, lab, a, b, scale, z);
-        binSpan(r, a, b, buf, SpanDepths{}, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
+        s.counts[kKept] += c.kept;
+        s.counts[kInvalid] += c.invalid;
+        s.counts[kFloor] += c.floor;
+        s.counts[kAboveCeiling] += c.ceiling;
+        const int below = w - c.kept - c.invalid - c.floor - c.ceiling;
+        s.counts[kBelowFloor] += below;
+        if (cliff && below > 0)
+        {
+          // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
+          const int a = c.below_first >= 0 ? c.below_first : firstLabelled(lab, w, kBelowFloor);
+          const int b = c.below_last >= 0 ? c.below_last : lastLabelled(lab, w, kBelowFloor);
+          belowFloorDepth<T>(src, lab, a, b, scale, z);
+          binSpan(r, a, b, buf, SpanDepths{}, MinCountInto{s.cliff_bins.data() + 1, s.cliff_count.data() + 1});
+        }
+        spans_[2 * r] = w;
+        spans_[2 * r + 1] = -1;
+        if (c.kept == 0)
+          continue;
+        // Only the span from the first to the last kept pixel can reach a bin.
+        const int a = c.kept_first >= 0 ? c.kept_first : firstLabelled(lab, w, kKept);
+        const int b = c.kept_last >= 0 ? c.kept_last : lastLabelled(lab, w, kKept);
+        spans_[2 * r] = a;
+        spans_[2 * r + 1] = b;
+        if (column)
+        {
+          // The column projection's bin and range factor depend on the column only: keep the nearest depth
+          // per column and bin the columns once per frame.
+          keptDepth<T>(dst, a, b, scale, z);
+          minInto(z, a, b, s.colmin.data());
+        }
       }
-      spans_[2 * r] = w;
-      spans_[2 * r + 1] = -1;
-      if (c.kept == 0)
-        continue;
-      // Only the span from the first to the last kept pixel can reach a bin.
-      const int a = c.kept_first >= 0 ? c.kept_first : firstLabelled(lab, w, kKept);
-      const int b = c.kept_last >= 0 ? c.kept_last : lastLabelled(lab, w, kKept);
-      spans_[2 * r] = a;
-      spans_[2 * r + 1] = b;
       if (column)
-      {
-        // The column projection's bin and range factor depend on the column only: keep the nearest depth
-        // per column and bin the columns once per frame.
-        keptDepth<T>(dst, a, b, scale, z);
-        minInto(z, a, b, s.colmin.data());
-      }
-      else
-      {
-        // The horizontal projection bins each row on its own: while the row is at hand, into this thread's bins.
-        binSpan(r, a, b, buf, KeptDepths<T>{dst, scale}, MinInto{bins});
-      }
+        continue;
+      // The horizontal projection bins each row on its own, into this thread's bins: the chunk's rows' bins first
+      // (each a chain of dependent operations from the span's ends, independent of the other rows': the CPU
+      // overlaps them), then their pixels.
+      std::array<SpanPlan, kRowChunk> plans;
+      std::array<int, kRowChunk> n{};
+      for (int r = r0; r < r1; ++r)
+        if (spans_[2 * r] <= spans_[2 * r + 1])
+          n[r - r0] = projector_.spanPlan(r, spans_[2 * r], spans_[2 * r + 1], plans[r - r0]);
+      for (int r = r0; r < r1; ++r)
+        if (spans_[2 * r] <= spans_[2 * r + 1])
+          binSpan(r, spans_[2 * r], spans_[2 * r + 1], n[r - r0], plans[r - r0], buf,
+                  KeptDepths<T>{out.depth.ptr<T>(r), scale}, MinInto{bins});
     }
     // (implicit barrier: the column projection's bins need every row's column minima)
 
