@@ -739,6 +739,21 @@ RowCounts splitRowFast(const T* src, int w, const ValueSplit& s, std::uint8_t* l
   return splitRow<T>(src, w, s, lab, dst, in, cand);
 }
 
+/**
+ * REP 117 for a scan's ranges: NaN for the beams outside [cov_lo, cov_hi] (no pixel of the image looks that way at
+ * this pose), -Inf below range_min, +Inf above range_max; NaN stays NaN. Selects, in whole vectors.
+ */
+KP_CLONES void rep117(float* __restrict ranges, int n, float cov_lo, float cov_hi, float range_min, float range_max)
+{
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int b = 0; b < n; ++b)
+  {
+    const float r = ranges[b], fb = static_cast<float>(b);  // b < 2^24: b + 1 is exact either way
+    const float clipped = r < range_min ? -kInf : (r > range_max ? kInf : r);
+    ranges[b] = (fb + 1.0f <= cov_lo || fb > cov_hi) ? nan : clipped;
+  }
+}
+
 // Whether lab[u..u+63] holds the label l (a fixed-length reduction: whole vectors).
 __attribute__((always_inline)) inline bool blockHas(const std::uint8_t* __restrict lab, int u, std::uint8_t l)
 {
@@ -1613,20 +1628,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   cl.angle_increment = scan.angle_increment;
   cl.range_min = scan.range_min;
   cl.range_max = scan.range_max;
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   for (std::vector<float>* ranges : {&scan.ranges, &cl.ranges})
-  {
-    for (int b = 0; b < static_cast<int>(ranges->size()); ++b)
-    {
-      float& r = (*ranges)[b];
-      if (b + 1 <= cov_lo || b > cov_hi)
-        r = nan;  // no pixel of the image looks in this direction at this pose
-      else if (r < scan.range_min)
-        r = -kInf;
-      else if (r > scan.range_max)
-        r = kInf;
-    }
-  }
+    rep117(ranges->data(), static_cast<int>(ranges->size()), cov_lo, cov_hi, scan.range_min, scan.range_max);
   confidence_.apply(scan.ranges, scan.intensities);
   out.times.confidence = msSince(t1);
 }
