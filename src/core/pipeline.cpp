@@ -1402,7 +1402,10 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
       }
     }
 
-#pragma omp for schedule(dynamic, 1)
+    // Chunks dealt in turn (thread t takes chunks t, t + T, ...): neighbouring chunks cost about the same, so the
+    // threads' shares even out without the shared counter of a dynamic schedule (by the bench, 2 threads gave
+    // 1.4-1.8x one with a dynamic schedule on this 2-CPU machine, 1.70-1.79x dealt in turn).
+#pragma omp for schedule(static, 1)
     for (int chunk = 0; chunk < (h + kRowChunk - 1) / kRowChunk; ++chunk)
     {
       const int r0 = chunk * kRowChunk, r1 = std::min(h, r0 + kRowChunk);
