@@ -237,18 +237,25 @@ KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, i
     {
       const float g0 = clampIn(crossing<kRoll>(p[j], q[j], bx, by, cx), gl, gh);
       const float g1 = clampIn(crossing<kRoll>(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
-      std::int32_t l, h;
+      // The middle's centre, floor(x) for x = 0.5 (g0 + g1) + 0.5, is needed for empty bins only: both crossings
+      // then lie within one pixel spacing (up: (C - 1, C], C = ceil(g0); fall: [F, F + 1), F = floor(g0)), so
+      // floor(x) is C - 1 or C (F or F + 1) and one compare with C (F + 1) finds it, without rounding x.
+      const float x = 0.5f * (g0 + g1) + 0.5f;
+      std::int32_t l, h, mid;
       if constexpr (kUp)
       {
-        l = static_cast<std::int32_t>(std::ceil(g0));
+        const float c0 = std::ceil(g0);
+        l = static_cast<std::int32_t>(c0);
         h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+        mid = l - 1 + (x >= c0);
       }
       else
       {
+        const float f0 = std::floor(g0);
         l = static_cast<std::int32_t>(std::floor(g1)) + 1;
-        h = static_cast<std::int32_t>(std::floor(g0));
+        h = static_cast<std::int32_t>(f0);
+        mid = h + (x >= f0 + 1.0f);
       }
-      const std::int32_t mid = static_cast<std::int32_t>(std::floor(0.5f * (g0 + g1) + 0.5f));
       const bool empty = l > h;
       l = empty ? mid : l;
       h = empty ? mid : h;
