@@ -26,26 +26,37 @@ struct ScanData
   std::vector<float> intensities;  ///< confidence in [0, 1] (see Confidence)
 };
 
-/** Branch-free atan2 (max error ~2e-6 rad) that the compiler can vectorise. */
-inline float fastAtan2(float y, float x)
+/**
+ * Branch-free atan2 from an approximation of atan on [0, 1] (atan01(a) for a = min / max of |x|, |y|), by the
+ * octant's reflections: the one reduction of fastAtan2 and coarser variants.
+ */
+template <typename Atan01>
+inline float atan2ByOctant(float y, float x, const Atan01& atan01)
 {
   const float ax = x < 0.0f ? -x : x;
   const float ay = y < 0.0f ? -y : y;
   const float mx = ax > ay ? ax : ay;
   const float mn = ax > ay ? ay : ax;
-  const float a = mn / (mx > 1e-30f ? mx : 1e-30f);
-  const float s = a * a;
-  // Minimax polynomial for atan on [0, 1].
-  float r = -0.0117212f;
-  r = r * s + 0.05265332f;
-  r = r * s - 0.11643287f;
-  r = r * s + 0.19354346f;
-  r = r * s - 0.33262347f;
-  r = r * s + 0.99997726f;
-  r *= a;
+  float r = atan01(mn / (mx > 1e-30f ? mx : 1e-30f));
   r = ay > ax ? 1.57079637f - r : r;
   r = x < 0.0f ? 3.14159274f - r : r;
   return y < 0.0f ? -r : r;
+}
+
+/** Branch-free atan2 (max error ~2e-6 rad) that the compiler can vectorise. */
+inline float fastAtan2(float y, float x)
+{
+  return atan2ByOctant(y, x, [](float a) {
+    const float s = a * a;
+    // Minimax polynomial for atan on [0, 1].
+    float r = -0.0117212f;
+    r = r * s + 0.05265332f;
+    r = r * s - 0.11643287f;
+    r = r * s + 0.19354346f;
+    r = r * s - 0.33262347f;
+    r = r * s + 0.99997726f;
+    return r * a;
+  });
 }
 
 /**

@@ -493,6 +493,20 @@ bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, 
  * its own vector width): labels, cleaned depth and, with kRescue, the rescue's flags, and the block's counts added
  * to per-lane counters (a mask is -1: subtracting it counts one) for the lanes in count.
  */
+// A row's counts from those of its values at or above t1 (n1) and t2 (n2), of no return (ni) and of the rescue's
+// flags (nc).
+inline RowCounts splitCounts(const ValueSplit& s, int w, int n1, int n2, int ni, int nc)
+{
+  RowCounts c;
+  c.kept = w - n1;
+  c.invalid = ni;
+  // n1 - n2 pixels have label l1; the no-return values count in n1 and n2 alike.
+  c.floor = s.l1 == kFloor ? n1 - n2 : 0;
+  c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
+  c.candidates = nc;
+  return c;
+}
+
 // Labels, cleaned depth and counts of an 8- or 16-bit row from its value thresholds. Integer arithmetic of the
 // pixel's width only, with counters of that width per block of 128 pixels (a multiple of every vector width), so
 // that it vectorises without a scalar tail. With in (the raw row), also flags in cand the pixels the rescue may
@@ -557,14 +571,7 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
     ni += ci;
     nc += cc;
   }
-  RowCounts c;
-  c.kept = w - n1;
-  c.invalid = ni;
-  // n1 - n2 pixels have label l1; the no-return values count in n1 and n2 alike.
-  c.floor = s.l1 == kFloor ? n1 - n2 : 0;
-  c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
-  c.candidates = nc;
-  return c;
+  return splitCounts(s, w, n1, n2, ni, nc);
 }
 
 #if defined(KP_AVX512_PATHS)
@@ -711,12 +718,7 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
       block(w - L, all, static_cast<Mask>(all << (u - (w - L))));  // the lanes before u are counted already
   }
   flush();
-  RowCounts c;
-  c.kept = w - n1;
-  c.invalid = ni;
-  c.floor = s.l1 == kFloor ? n1 - n2 : 0;
-  c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
-  c.candidates = nc;
+  RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
   c.kept_first = kept_first;
   c.kept_last = kept_at < 0 ? -1 : kept_at + 63 - __builtin_clzll(kept_mask);
   c.below_first = below_first;

@@ -17,19 +17,13 @@ namespace
 constexpr double kCoarseAtanError = 1e-3;
 inline float coarseAtan2(float y, float x)
 {
-  const float ax = x < 0.0f ? -x : x;
-  const float ay = y < 0.0f ? -y : y;
-  const float mx = ax > ay ? ax : ay;
-  const float mn = ax > ay ? ay : ax;
-  const float a = mn / (mx > 1e-30f ? mx : 1e-30f);
-  const float s = a * a;
-  float r = 0.07934285f;
-  r = r * s - 0.28869395f;
-  r = r * s + 0.99535861f;
-  r *= a;
-  r = ay > ax ? 1.57079637f - r : r;
-  r = x < 0.0f ? 3.14159274f - r : r;
-  return y < 0.0f ? -r : r;
+  return atan2ByOctant(y, x, [](float a) {
+    const float s = a * a;
+    float r = 0.07934285f;
+    r = r * s - 0.28869395f;
+    r = r * s + 0.99535861f;
+    return r * a;
+  });
 }
 }  // namespace
 
