@@ -105,9 +105,9 @@ namespace detail
 bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
                  std::int32_t* counts = nullptr);
 /**
- * Whether the hand-written AVX-512 paths (the scan's nearest range per bin, the 3x3 opening) may run where the CPU
- * has AVX-512 (default true); false forces the portable loops, which give the same bits. For tests: not to be
- * changed while frames are processed. @return the previous setting
+ * Whether the hand-written AVX-512 paths (the scan's nearest range per bin, the 3x3 opening, the labelling of a
+ * row by value) may run where the CPU has AVX-512 (default true); false forces the portable loops, which give the
+ * same bits. For tests: not to be changed while frames are processed. @return the previous setting
  */
 bool setVectorPaths(bool on);
 }  // namespace detail

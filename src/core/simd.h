@@ -14,8 +14,8 @@
 #define KP_CLONES
 #endif
 
-// The binning's pull (scan.cpp) and the 3x3 opening (morphology.cpp) have AVX-512 paths of their own, picked at
-// run time (detail::vectorPaths).
+// The binning's pull (scan.cpp), the 3x3 opening (morphology.cpp) and the labelling of a row by value
+// (pipeline.cpp) have AVX-512 paths of their own, picked at run time (detail::vectorPaths).
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(KP_NO_CLONES)
 #define KP_AVX512_PATHS 1
 #define KP_TARGET_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
