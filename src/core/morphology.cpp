@@ -207,20 +207,28 @@ struct Box3Vector
 #pragma GCC diagnostic pop
 #endif
 
+// box3Row from the three rows given (w >= 3), with AVX-512 where the CPU has it (8- and 16-bit rows).
+template <typename T, bool kMin, bool kMap>
+void box3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+{
+#if defined(KP_AVX512_PATHS)
+  if constexpr (!std::is_floating_point_v<T>)
+  {
+    if (w >= Box3Vector<T, kMin, kMap>::kLanes && vectorPaths())
+      return Box3Vector<T, kMin, kMap>::row(a, b, c, w, dst);
+  }
+#endif
+  box3Row<T, kMin, kMap>(a, b, c, w, dst);
+}
+
+// box3Rows of row r of src and its neighbours (the row itself at the image's top and bottom).
 template <typename T, bool kMin, bool kMap>
 void box3(const cv::Mat& src, int r, T* dst)
 {
   const T* b = src.ptr<T>(r);
   const T* a = r > 0 ? src.ptr<T>(r - 1) : b;
   const T* c = r + 1 < src.rows ? src.ptr<T>(r + 1) : b;
-#if defined(KP_AVX512_PATHS)
-  if constexpr (!std::is_floating_point_v<T>)
-  {
-    if (src.cols >= Box3Vector<T, kMin, kMap>::kLanes && vectorPaths())
-      return Box3Vector<T, kMin, kMap>::row(a, b, c, src.cols, dst);
-  }
-#endif
-  box3Row<T, kMin, kMap>(a, b, c, src.cols, dst);
+  box3Rows<T, kMin, kMap>(a, b, c, src.cols, dst);
 }
 }  // namespace
 
@@ -254,14 +262,7 @@ void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
     horizontal<T, false>(col, w, 1, dst);
     return;
   }
-#if defined(KP_AVX512_PATHS)
-  if constexpr (!std::is_floating_point_v<T>)
-  {
-    if (w >= Box3Vector<T, false, false>::kLanes && vectorPaths())
-      return Box3Vector<T, false, false>::row(a, b, c, w, dst);
-  }
-#endif
-  box3Row<T, false, false>(a, b, c, w, dst);
+  box3Rows<T, false, false>(a, b, c, w, dst);
 }
 
 template <typename T>

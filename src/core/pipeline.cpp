@@ -229,7 +229,6 @@ struct ValueSplit
   int min_move = 1;  // the rescue's flags: raw values at least this many values above the opened one (rescueMove)
 };
 
-
 /**
  * The table's terms of ValueProof over the values 0 .. no-return - 1, with d = fl(v scale) as the pixels get it.
  * @param table the threshold of each value (ThresholdLut::valueTable)
@@ -488,11 +487,6 @@ bool splitValues(const ValueLabeler<T>& label, const ValueProof& proof, int lo, 
   }
 }
 
-/**
- * splitRow's work on one block of 64 bytes of pixels, as GCC vector extensions (each KP_CLONES clone lowers them to
- * its own vector width): labels, cleaned depth and, with kRescue, the rescue's flags, and the block's counts added
- * to per-lane counters (a mask is -1: subtracting it counts one) for the lanes in count.
- */
 // A row's counts from those of its values at or above t1 (n1) and t2 (n2), of no return (ni) and of the rescue's
 // flags (nc).
 inline RowCounts splitCounts(const ValueSplit& s, int w, int n1, int n2, int ni, int nc)
@@ -584,9 +578,9 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
 #pragma GCC diagnostic ignored "-Wuninitialized"
 #endif
 /**
- * splitRow with AVX-512: the compares as masks, labels and flags built in bytes from them, counts as popcounts of
- * the masks (no per-block reductions of byte counters). The same bits as splitRow: labels are 0, l1, l1 + l2 or
- * kInvalid in any width, and the rest are compares and selects.
+ * splitRow with AVX-512: the compares as masks, labels and flags built in bytes from them, counts per lane in
+ * vector registers, summed once per row (not reduced per block as splitRow's byte counters are). The same bits as
+ * splitRow: labels are 0, l1, l1 + l2 or kInvalid in any width, and the rest are compares and selects.
  */
 template <typename T, bool kRescue>
 KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst,

@@ -27,7 +27,6 @@ inline float coarseAtan2(float y, float x)
 }
 }  // namespace
 
-
 void ScanProjector::configure(const Camera& camera, const Config& config)
 {
   projection_ = config.projection;
@@ -452,16 +451,7 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   }
   if ((den[0] > 0.0f) != (den[n] > 0.0f))
     return -1;
-  plan.first = k0;
-  plan.n = n;
-  plan.up = g[1] > g[0];
-  plan.p = p;
-  plan.q = q;
-  plan.bx = bx;
-  plan.by = by;
-  plan.cx = cx_;
-  plan.a = a;
-  plan.b = b;
+  plan = SpanPlan{k0, n, g[1] > g[0], p, q, bx, by, cx_, a, b};
   return n;
 }
 
@@ -514,7 +504,6 @@ bool detail::setVectorPaths(bool on)
   g_vector_paths = on;
   return was;
 }
-
 
 void ScanProjector::coverage(float& lo, float& hi) const
 {
