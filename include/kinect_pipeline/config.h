@@ -104,6 +104,14 @@ struct Config
   double min_intensity = 0.2;        ///< intensity at or below which a filtered beam becomes NaN
   bool intensity_filter = false;     ///< NaN the finite beams with intensity <= min_intensity
 
+  /// Floor refinement (floor_fit.h): the pose corrected from the frame's own floor before the planes are predicted.
+  bool refine_floor = true;              ///< fit the floor to the frame; false: the pose exactly as given
+  double floor_max_height_error = 0.08;  ///< largest correction of the sensor height [m] (and the band searched)
+  double floor_max_pitch_error = 0.035;  ///< largest correction of the pitch [rad] (2 deg)
+  double floor_max_roll_error = 0.035;   ///< largest correction of the roll [rad] (2 deg)
+  int floor_min_pixels = 4000;           ///< fewest image pixels on the fitted floor to accept it [px]
+  double floor_learn_time = 2.0;         ///< time constant of the learned correction [s]; 0 = learn nothing
+
   int num_threads = 0;  ///< OpenMP threads for one frame; 0 = OpenMP's default
 
   /**

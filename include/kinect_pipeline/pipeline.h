@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
 #include "kinect_pipeline/encoding.h"
+#include "kinect_pipeline/floor_fit.h"
 #include "kinect_pipeline/plane_model.h"
 #include "kinect_pipeline/scan.h"
 #include "kinect_pipeline/threshold_curve.h"
@@ -32,18 +34,11 @@ enum Label : std::uint8_t
 };
 constexpr int kNumLabels = 5;
 
-/** The sensor's pose relative to the floor for one frame (sensor mounting and base motion together). */
-struct SensorPose
-{
-  double height;  ///< optical centre above the floor [m], > 0
-  double pitch;   ///< [rad], + looks down, |pitch| <= pi/2
-  double roll;    ///< [rad], + right side down, |roll| <= pi/2
-};
-
 /** Wall-clock time of each stage of the last frame [ms]. */
 struct StageTimes
 {
-  double prepare = 0.0;         ///< input checks, plane and scan terms
+  double prepare = 0.0;         ///< input checks, floor fit, plane and scan terms
+  double floor_fit = 0.0;       ///< the floor refinement alone (part of prepare)
   double erode = 0.0;           ///< unknown -> no return, then the opening's erosion
   double classify_scan = 0.0;   ///< the fused loop: dilation, plane removal, labels, beam binning
   double confidence = 0.0;      ///< bin reduction, range limits, rolling confidence
@@ -63,6 +58,8 @@ struct FrameResult
    */
   ScanData cliff;
   std::array<std::uint64_t, kNumLabels> counts{};  ///< pixels per label
+  SensorPose pose{0.0, 0.0, 0.0};  ///< the pose the frame was processed at (the prior, refined by the floor fit)
+  FloorFitResult floor_fit;        ///< what the floor refinement decided (status kOff when refine_floor is false)
   StageTimes times;
 };
 
@@ -126,10 +123,12 @@ public:
    * @param base_pitch base pitch added to sensor_pitch [rad], + looks down
    * @param base_roll base roll added to sensor_roll [rad], + right side down
    * @param out result; its buffers are reused
+   * @param stamp the frame's time [s], for the floor refinement's learned correction; NaN: 1/30 s after the last
    * @throw std::invalid_argument for another type, an empty image, a size that disagrees with the camera,
    *        or a non-finite pose; nothing is changed then.
    */
-  void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out);
+  void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out,
+               double stamp = std::numeric_limits<double>::quiet_NaN());
 
   /**
    * @brief Processes one frame at a pose given whole (e.g. from tf): sensor_height, sensor_pitch and
@@ -137,13 +136,16 @@ public:
    * @throw std::invalid_argument as process(), and for a non-finite pose, a height <= 0 or >= ceiling_height,
    *        or |pitch|, |roll| > pi/2.
    */
-  void process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out);
+  void process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out,
+               double stamp = std::numeric_limits<double>::quiet_NaN());
 
-  /** @brief Forgets the confidence history. */
+  /** @brief Forgets the confidence history and the floor refinement's learned correction. */
   void reset();
 
   /** @return the plane model as of the last frame (for tests and debug images). */
   const PlaneModel& planes() const { return planes_; }
+  /** @return the floor refinement (its learned correction). */
+  const FloorFit& floorFit() const { return floor_fit_; }
   /** @return the scan projector as of the last frame. */
   const ScanProjector& projector() const { return projector_; }
 
@@ -165,6 +167,7 @@ private:
   Camera camera_;
   Config config_;
   PlaneModel planes_;
+  FloorFit floor_fit_;
   ScanProjector projector_;
   Confidence confidence_;
   ThresholdLut lut_;

@@ -181,6 +181,16 @@ void Config::validate() const
   }
   requirePositive("confidence_distance", confidence_distance, "m");
   requireRange("min_intensity", min_intensity, 0.0, 1.0, "");
+  requireRange("floor_max_height_error", floor_max_height_error, 0.001, 1.0, "m");
+  requireRange("floor_max_pitch_error", floor_max_pitch_error, 0.0001, 0.5, "rad");
+  requireRange("floor_max_roll_error", floor_max_roll_error, 0.0001, 0.5, "rad");
+  if (floor_min_pixels < 1 || floor_min_pixels > 100000000)
+  {
+    std::ostringstream s;
+    s << "Config.floor_min_pixels = " << floor_min_pixels << ": expected 1..100000000 image pixels";
+    fail(s.str());
+  }
+  requireRange("floor_learn_time", floor_learn_time, 0.0, 3600.0, "s (0 = learn nothing)");
   if (num_threads < 0 || num_threads > 1024)
   {
     std::ostringstream s;

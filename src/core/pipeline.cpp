@@ -989,6 +989,10 @@ Pipeline::~Pipeline() = default;
 void Pipeline::setConfig(const Config& config)
 {
   config.validate();
+  // The learned floor correction belongs to a mounting: a new static pose or refinement setting starts afresh.
+  if (config.sensor_height != config_.sensor_height || config.sensor_pitch != config_.sensor_pitch ||
+      config.sensor_roll != config_.sensor_roll || config.refine_floor != config_.refine_floor)
+    floor_fit_.reset();
   config_ = config;
   projector_.configure(camera_, config_);
   confidence_.configure(projector_.beams(), config_);
@@ -1005,7 +1009,11 @@ void Pipeline::setCamera(const Camera& camera)
   planes_ = PlaneModel();
 }
 
-void Pipeline::reset() { confidence_.reset(); }
+void Pipeline::reset()
+{
+  confidence_.reset();
+  floor_fit_.reset();
+}
 
 void Pipeline::prepareBuffers(int threads)
 {
@@ -1042,7 +1050,7 @@ void Pipeline::prepareBuffers(int threads)
   spans_.resize(2 * static_cast<std::size_t>(camera_.height));
 }
 
-void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out)
+void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out, double stamp)
 {
   if (!std::isfinite(base_pitch) || !std::isfinite(base_roll))
   {
@@ -1051,10 +1059,10 @@ void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll
     throw std::invalid_argument(s.str());
   }
   process(depth, SensorPose{config_.sensor_height, config_.sensor_pitch + base_pitch, config_.sensor_roll + base_roll},
-          out);
+          out, stamp);
 }
 
-void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out)
+void Pipeline::process(const cv::Mat& depth, const SensorPose& prior, FrameResult& out, double stamp)
 {
   const auto t0 = Clock::now();
   if (depth.empty())
@@ -1071,7 +1079,7 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
       << camera_.width << "x" << camera_.height;
     throw std::invalid_argument(s.str());
   }
-  const double pitch = pose.pitch, roll = pose.roll, height = pose.height;
+  const double pitch = prior.pitch, roll = prior.roll, height = prior.height;
   if (!std::isfinite(pitch) || !std::isfinite(roll) || std::fabs(pitch) > kHalfPi + 1e-9 ||
       std::fabs(roll) > kHalfPi + 1e-9)
   {
@@ -1088,8 +1096,6 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
     throw std::invalid_argument(s.str());
   }
 
-  if (planes_.update(camera_, config_, height, pitch, roll))
-    projector_.setPose(pitch, roll);
   const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : (type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32);
   if (!lut_valid_ || enc != lut_encoding_)
   {
@@ -1101,6 +1107,11 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& pose, FrameResult
       value_terms_ = valueTerms<std::uint16_t>(lut_.valueTable(), depthScale<std::uint16_t>(config_.max_depth));
     lut_valid_ = true;
   }
+  const auto t_fit = Clock::now();
+  out.pose = floor_fit_.refine(depth, camera_, config_, lut_, prior, stamp, out.floor_fit);
+  out.times.floor_fit = msSince(t_fit);
+  if (planes_.update(camera_, config_, out.pose.height, out.pose.pitch, out.pose.roll))
+    projector_.setPose(out.pose.pitch, out.pose.roll);
   out.depth.create(depth.size(), type);
   out.labels.create(depth.size(), CV_8UC1);
   out.times.prepare = msSince(t0);

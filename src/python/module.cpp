@@ -1,5 +1,7 @@
 // pybind11 binding of the ROS-free core: kinect_pipeline._core.
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -103,6 +105,8 @@ struct PyResult
   py::array_t<float> ranges, intensities, cliff_ranges;
   float angle_min, angle_max, angle_increment, range_min, range_max;
   py::dict counts, times;
+  SensorPose pose{0.0, 0.0, 0.0};
+  FloorFitResult floor_fit;
 };
 
 struct PyPipeline
@@ -112,6 +116,31 @@ struct PyPipeline
   FrameResult result;
   std::mutex mutex;  // process() releases the GIL: one frame at a time per instance
 };
+
+double stampOf(const py::object& stamp)
+{
+  if (stamp.is_none())
+    return std::numeric_limits<double>::quiet_NaN();
+  const double t = py::cast<double>(stamp);
+  if (!std::isfinite(t))
+    throw py::value_error("stamp = " + std::string(py::repr(stamp)) + ": expected a finite time in seconds or None");
+  return t;
+}
+
+double poseTerm(const SensorPose& p, int i)
+{
+  if (i < -3 || i > 2)
+    throw py::index_error("pose index " + std::to_string(i) + ": expected 0 (height), 1 (pitch) or 2 (roll)");
+  const double v[3] = {p.height, p.pitch, p.roll};
+  return v[(i + 3) % 3];
+}
+
+std::string describeTerms(const std::string& name, double h, double p, double r)
+{
+  std::ostringstream s;
+  s << name << "(height=" << h << " m, pitch=" << p << " rad, roll=" << r << " rad)";
+  return s.str();
+}
 
 const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
 
@@ -138,6 +167,8 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
     fr.cliff = self.result.cliff;
     fr.counts = self.result.counts;
     fr.times = self.result.times;
+    fr.pose = self.result.pose;
+    fr.floor_fit = self.result.floor_fit;
     if (self.result.depth.data != depth_out || self.result.labels.data != labels_out)
       throw std::logic_error("kinect_pipeline: the core reallocated its output");
   }
@@ -151,7 +182,10 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
   res.range_max = fr.scan.range_max;
   for (int k = 0; k < kNumLabels; ++k)
     res.counts[kLabelNames[k]] = fr.counts[k];
+  res.pose = fr.pose;
+  res.floor_fit = fr.floor_fit;
   res.times["prepare"] = fr.times.prepare;
+  res.times["floor_fit"] = fr.times.floor_fit;
   res.times["erode"] = fr.times.erode;
   res.times["classify_scan"] = fr.times.classify_scan;
   res.times["confidence"] = fr.times.confidence;
@@ -201,6 +235,12 @@ void setConfigField(Config& c, const std::string& key, const py::handle& v)
   else if (key == "cliff_in_scan") c.cliff_in_scan = py::cast<bool>(v);
   else if (key == "surface_band") c.surface_band = py::cast<double>(v);
   else if (key == "cliff_min_pixels") c.cliff_min_pixels = py::cast<int>(v);
+  else if (key == "refine_floor") c.refine_floor = py::cast<bool>(v);
+  else if (key == "floor_max_height_error") num(c.floor_max_height_error);
+  else if (key == "floor_max_pitch_error") num(c.floor_max_pitch_error);
+  else if (key == "floor_max_roll_error") num(c.floor_max_roll_error);
+  else if (key == "floor_min_pixels") c.floor_min_pixels = py::cast<int>(v);
+  else if (key == "floor_learn_time") num(c.floor_learn_time);
   else if (key == "num_threads") c.num_threads = py::cast<int>(v);
   else
     throw py::type_error("Config: unknown field '" + key + "'");
@@ -210,7 +250,8 @@ const char* kConfigFields[] = {"sensor_height", "sensor_pitch", "sensor_roll", "
                                "geometry", "projection", "open_kernel_size", "open_kernel_shape",
                                "threshold_curve", "range_min", "range_max", "scan_beams", "scan_fov",
                                "surface_band", "cliff_scan", "cliff_in_scan", "cliff_min_pixels", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
-                               "num_threads"};
+                               "refine_floor", "floor_max_height_error", "floor_max_pitch_error",
+                               "floor_max_roll_error", "floor_min_pixels", "floor_learn_time", "num_threads"};
 
 }  // namespace
 
@@ -278,6 +319,12 @@ PYBIND11_MODULE(_core, m)
       .def_readwrite("confidence_distance", &Config::confidence_distance)
       .def_readwrite("min_intensity", &Config::min_intensity)
       .def_readwrite("intensity_filter", &Config::intensity_filter)
+      .def_readwrite("refine_floor", &Config::refine_floor)
+      .def_readwrite("floor_max_height_error", &Config::floor_max_height_error)
+      .def_readwrite("floor_max_pitch_error", &Config::floor_max_pitch_error)
+      .def_readwrite("floor_max_roll_error", &Config::floor_max_roll_error)
+      .def_readwrite("floor_min_pixels", &Config::floor_min_pixels)
+      .def_readwrite("floor_learn_time", &Config::floor_learn_time)
       .def_readwrite("num_threads", &Config::num_threads)
       .def("validate", &Config::validate, "Raises ValueError naming the field, its value and the allowed range.")
       .def("to_dict", [](const Config& c) {
@@ -300,6 +347,50 @@ PYBIND11_MODULE(_core, m)
         return s + ")";
       });
 
+  py::class_<SensorPose>(m, "SensorPose",
+                         "The sensor's pose relative to the floor: height [m], pitch [rad, + looks down], roll [rad, + "
+                         "right side down]. Unpacks as (height, pitch, roll).")
+      .def(py::init([](double h, double p, double r) { return SensorPose{h, p, r}; }), py::arg("height"),
+           py::arg("pitch"), py::arg("roll") = 0.0)
+      .def_readwrite("height", &SensorPose::height)
+      .def_readwrite("pitch", &SensorPose::pitch)
+      .def_readwrite("roll", &SensorPose::roll)
+      .def("__len__", [](const SensorPose&) { return 3; })
+      .def("__getitem__", [](const SensorPose& p, int i) { return poseTerm(p, i); })
+      .def("__iter__", [](const SensorPose& p) { return py::iter(py::make_tuple(p.height, p.pitch, p.roll)); })
+      .def("__repr__", [](const SensorPose& p) { return describeTerms("SensorPose", p.height, p.pitch, p.roll); });
+  py::class_<PoseCorrection>(m, "PoseCorrection",
+                             "A correction added to a pose: height [m], pitch and roll [rad]. Unpacks as a tuple.")
+      .def_readonly("height", &PoseCorrection::height)
+      .def_readonly("pitch", &PoseCorrection::pitch)
+      .def_readonly("roll", &PoseCorrection::roll)
+      .def("__len__", [](const PoseCorrection&) { return 3; })
+      .def("__getitem__", [](const PoseCorrection& c, int i) { return poseTerm(SensorPose{c.height, c.pitch, c.roll}, i); })
+      .def("__iter__", [](const PoseCorrection& c) { return py::iter(py::make_tuple(c.height, c.pitch, c.roll)); })
+      .def("__repr__",
+           [](const PoseCorrection& c) { return describeTerms("PoseCorrection", c.height, c.pitch, c.roll); });
+  py::class_<FloorFitResult>(m, "FloorFit", "What the floor refinement decided for one frame.")
+      .def_property_readonly("accepted", &FloorFitResult::accepted, "the frame was processed at the fitted pose")
+      .def_property_readonly(
+          "reason", [](const FloorFitResult& f) { return toString(f.status); },
+          "'accepted', 'off', 'too few pixels', 'spread too large', 'out of bounds' or 'ill-conditioned'")
+      .def_readonly("stride", &FloorFitResult::stride, "the fit samples every stride-th pixel of every stride-th row")
+      .def_readonly("candidates", &FloorFitResult::candidates, "sampled pixels in the band where the floor can be")
+      .def_readonly("support", &FloorFitResult::support, "of those, the sampled pixels on the fitted floor")
+      .def_readonly("pixels", &FloorFitResult::pixels,
+                    "image pixels on the fitted floor (support * stride^2), compared with floor_min_pixels")
+      .def_readonly("spread", &FloorFitResult::spread, "RMS residual of the support in units of t(d)")
+      .def_readonly("fit", &FloorFitResult::fit, "fitted pose minus the prior (also when declined)")
+      .def_readonly("correction", &FloorFitResult::applied, "the frame's pose minus the prior")
+      .def_readonly("learned", &FloorFitResult::learned, "the learned correction after this frame")
+      .def("__repr__", [](const FloorFitResult& f) {
+        std::ostringstream s;
+        s << "FloorFit(reason='" << toString(f.status) << "', pixels=" << f.pixels << ", support=" << f.support << ", candidates=" << f.candidates
+          << ", correction=" << describeTerms("", f.applied.height, f.applied.pitch, f.applied.roll)
+          << ", learned=" << describeTerms("", f.learned.height, f.learned.pitch, f.learned.roll) << ")";
+        return s.str();
+      });
+
   py::class_<PyResult>(m, "Result", "One processed frame.")
       .def_readonly("depth", &PyResult::depth, "cleaned depth, input dtype; removed: 255 / 0 / NaN")
       .def_readonly("labels", &PyResult::labels,
@@ -315,30 +406,40 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("range_min", &PyResult::range_min)
       .def_readonly("range_max", &PyResult::range_max)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
-      .def_readonly("times", &PyResult::times, "wall-clock ms per stage");
+      .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
+      .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
+      .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)");
 
   py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
       .def(py::init<const Camera&, const Config&>(), py::arg("camera"), py::arg("config"))
       .def(
           "process",
-          [](PyPipeline& self, const py::object& depth, double base_pitch, double base_roll) {
+          [](PyPipeline& self, const py::object& depth, double base_pitch, double base_roll, const py::object& stamp) {
+            const double t = stampOf(stamp);
             return runFrame(self, depth, [&](const cv::Mat& in, FrameResult& fr) {
-              self.pipe.process(in, base_pitch, base_roll, fr);
+              self.pipe.process(in, base_pitch, base_roll, fr, t);
             });
           },
-          py::arg("depth"), py::arg("base_pitch") = 0.0, py::arg("base_roll") = 0.0,
-          "Process one frame: depth is a 2-D uint8 (normalised), uint16 (mm) or float32 (m) array.")
+          py::arg("depth"), py::arg("base_pitch") = 0.0, py::arg("base_roll") = 0.0, py::arg("stamp") = py::none(),
+          "Process one frame: depth is a 2-D uint8 (normalised), uint16 (mm) or float32 (m) array; stamp [s] times "
+          "the floor refinement's learning (None: 1/30 s after the last frame).")
       .def(
           "process_pose",
-          [](PyPipeline& self, const py::object& depth, double height, double pitch, double roll) {
+          [](PyPipeline& self, const py::object& depth, double height, double pitch, double roll,
+             const py::object& stamp) {
+            const double t = stampOf(stamp);
             return runFrame(self, depth, [&](const cv::Mat& in, FrameResult& fr) {
-              self.pipe.process(in, SensorPose{height, pitch, roll}, fr);
+              self.pipe.process(in, SensorPose{height, pitch, roll}, fr, t);
             });
           },
-          py::arg("depth"), py::arg("height"), py::arg("pitch"), py::arg("roll") = 0.0,
+          py::arg("depth"), py::arg("height"), py::arg("pitch"), py::arg("roll") = 0.0, py::arg("stamp") = py::none(),
           "Process one frame at a whole pose (e.g. from tf): height [m], pitch and roll [rad] of the sensor; "
           "sensor_height/pitch/roll of the config are not used.")
-      .def("reset", [](PyPipeline& self) { self.pipe.reset(); }, "Forget the confidence history.")
+      .def("reset", [](PyPipeline& self) { self.pipe.reset(); },
+           "Forget the confidence history and the floor refinement's learned correction.")
+      .def_property_readonly(
+          "learned_correction", [](PyPipeline& self) { return self.pipe.floorFit().learned(); },
+          "The floor refinement's learned correction now (PoseCorrection).")
       .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
           [](PyPipeline& self, const Config& c) {
