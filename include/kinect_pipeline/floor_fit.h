@@ -59,10 +59,11 @@ struct FloorFitResult
 {
   FloorFitStatus status = FloorFitStatus::kOff;
   bool accepted() const { return status == FloorFitStatus::kAccepted; }
-  int stride = 0;      ///< the fit samples every stride-th pixel of every stride-th row
+  int row_step = 0;    ///< the fit samples every row_step-th row,
+  int col_step = 0;    ///< every col_step-th pixel of it (from an offset that changes from row to row)
   int candidates = 0;  ///< sampled pixels within the band where the floor can be under the pose uncertainty
   int support = 0;     ///< of those, the pixels within t(d) of the fitted floor
-  int pixels = 0;      ///< the image pixels the support stands for (support * stride^2), against floor_min_pixels
+  int pixels = 0;      ///< the image pixels the support stands for (support * row_step * col_step)
   double spread = 0.0; ///< RMS of the support's residuals in units of t(d) (pure noise: about 1/3)
   PoseCorrection fit;      ///< the fitted pose minus the prior (also when declined)
   PoseCorrection applied;  ///< the pose the frame was processed at minus the prior
@@ -109,12 +110,13 @@ private:
   void sample(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
               const SensorPose& prior);
   Plane fitPlane(const Config& config) const;
+  float nearestFloor() const;
   void decide(const Plane& plane, const Config& config, const SensorPose& prior, FloorFitResult& out) const;
   void learn(const FloorFitResult& out, const Config& config, double stamp);
 
-  int stride_ = 1;
+  int col_step_ = 1;
   int count_ = 0;  // sampled pixels in the band; the arrays are padded with weightless points to whole vectors
-  std::vector<float> x_, y_, e_, band_, inv_sigma_;
+  std::vector<float> x_, y_, e_, band_, inv_sigma_, range2_;
   std::vector<float> col_x_, col_y_, col_z_;  // the ray's level-frame terms of each sampled column
   PoseCorrection learned_;
   double last_stamp_ = 0.0;

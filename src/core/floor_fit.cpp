@@ -17,16 +17,27 @@ constexpr double kHalfPi = 1.57079632679489661923;
 // Pixels sampled per frame, about (a regular grid of every stride-th pixel): a few thousand give the plane to a
 // fraction of a millimetre at a few microseconds.
 constexpr double kSamples = 2500.0;
+constexpr int kRowStep = 2;
+constexpr double kGolden = 0.6180339887498949;
 // Farther pixels are not sampled: the depth noise and the band of pose uncertainty both grow with distance.
 constexpr float kMaxFitDepth = 6.0f;
 // The fit's noise scale of a pixel is band / kBandSigmas: t(d) is about 4.5 sigma + 2 cm for the default curve.
 constexpr float kBandSigmas = 3.0f;
 // Tukey's biweight constant (95 % efficiency on Gaussian noise) in units of the noise scale.
 constexpr float kTukey = 4.685f;
-// Graduated window: the biweight's scale starts this many times wider (covering the whole band of uncertainty)
-// and halves each iteration down to 1, then the last iterations refine at the noise scale.
-constexpr float kWindowStart = 8.0f;
-constexpr int kIterations = 6;
+// The iterations grow a region from the robot outwards while the biweight's window narrows: the floor is the
+// surface the robot stands on, so the nearest floor fixes the plane first (wide window: the whole band of pose
+// uncertainty), and farther pixels join once the plane is known well enough to tell a lower level beyond a stair
+// from the floor. Radii beyond the nearest sampled floor [m] (Inf: all) and window widths in noise scales.
+struct Stage
+{
+  float radius, window;
+};
+constexpr Stage kStages[] = {{1.0f, 8.0f}, {2.0f, 4.0f}, {1e9f, 2.0f}, {1e9f, 1.0f}, {1e9f, 1.0f}, {1e9f, 1.0f}};
+// The nearest sampled floor: the range within which this fraction of the candidates lie (outliers nearer do not
+// count), from a histogram of kRangeBin bins.
+constexpr double kNearFraction = 0.02;
+constexpr float kRangeBin = 0.1f;
 // Declines: the support's RMS residual in units of t(d) (pure noise about 0.33, residuals spread evenly over
 // +-t(d): 0.58), and the largest standard deviation of a fitted term as a fraction of its bound.
 constexpr double kMaxSpread = 0.5;
@@ -167,42 +178,46 @@ template <typename T>
 void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg, const ThresholdLut& lut,
                       const SensorPose& prior)
 {
-  stride_ = std::max(1, static_cast<int>(std::sqrt(cam.width * static_cast<double>(cam.height) / kSamples)));
-  const int u0 = stride_ / 2, cols = (cam.width - 1 - u0) / stride_ + 1;
-  const std::size_t capacity = static_cast<std::size_t>(cols) * ((cam.height - 1 - u0) / stride_ + 1) + kLanes;
-  for (auto* v : {&x_, &y_, &e_, &band_, &inv_sigma_})
+  // Every kRowStep-th row, each at columns col_step apart from an offset that moves on by the golden ratio from
+  // row to row: all rows take part (without roll the floor has one depth per row, so the rows are the independent
+  // samples of an integer encoding's rounding) and the columns are covered evenly.
+  const int rows = (cam.height + kRowStep - 1) / kRowStep;
+  col_step_ = std::max(1, static_cast<int>(rows * static_cast<double>(cam.width) / kSamples));
+  const std::size_t capacity = static_cast<std::size_t>(rows) * (cam.width / col_step_ + 1) + kLanes;
+  for (auto* v : {&x_, &y_, &e_, &band_, &inv_sigma_, &range2_})
     v->resize(capacity);  // once per camera: never reallocates after the first frame
-  col_x_.resize(cols);
-  col_y_.resize(cols);
-  col_z_.resize(cols);
+  col_x_.resize(cam.width);
+  col_y_.resize(cam.width);
+  col_z_.resize(cam.width);
   // The ray of pixel (u, r) in the level frame is a column term (xn times the rotation's first column) plus a row
   // term (yn times the second, plus the third).
   const std::array<double, 9> m = opticalToLevel(prior.pitch, prior.roll);
-  for (int j = 0; j < cols; ++j)
+  for (int u = 0; u < cam.width; ++u)
   {
-    const double xn = (u0 + j * stride_ - cam.cx) / cam.fx;
-    col_x_[j] = static_cast<float>(m[0] * xn);
-    col_y_[j] = static_cast<float>(m[3] * xn);
-    col_z_[j] = static_cast<float>(m[6] * xn);
+    const double xn = (u - cam.cx) / cam.fx;
+    col_x_[u] = static_cast<float>(m[0] * xn);
+    col_y_[u] = static_cast<float>(m[3] * xn);
+    col_z_[u] = static_cast<float>(m[6] * xn);
   }
   const float scale = std::is_same_v<T, std::uint8_t> ? static_cast<float>(cfg.max_depth / 255.0)
                                                       : (std::is_same_v<T, std::uint16_t> ? 0.001f : 1.0f);
   const float dh = static_cast<float>(cfg.floor_max_height_error), dp = static_cast<float>(cfg.floor_max_pitch_error),
               dr = static_cast<float>(cfg.floor_max_roll_error), h = static_cast<float>(prior.height);
   int n = 0;
-  for (int r = u0; r < cam.height; r += stride_)
+  for (int k = 0; k < rows; ++k)
   {
+    const int r = k * kRowStep;
     const double yn = (r - cam.cy) / cam.fy;
     const float rx = static_cast<float>(m[1] * yn + m[2]), ry = static_cast<float>(m[4] * yn + m[5]),
                 rz = static_cast<float>(m[7] * yn + m[8]);
     const T* row = depth.ptr<T>(r);
-    for (int j = 0; j < cols; ++j)
+    for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
     {
-      const T v = row[u0 + j * stride_];
-      const float z = metresOf(v, scale), rise = col_z_[j] + rz;
+      const T v = row[u];
+      const float z = metresOf(v, scale), rise = col_z_[u] + rz;
       if (!(z > 0.0f && z <= kMaxFitDepth && rise < 0.0f))
         continue;  // unknown, too far, or a ray that never meets the floor
-      const float x = z * (col_x_[j] + rx), y = z * (col_y_[j] + ry), e = h + z * rise;
+      const float x = z * (col_x_[u] + rx), y = z * (col_y_[u] + ry), e = h + z * rise;
       const float band = -rise * thresholdOf(lut, v, z);
       if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
         continue;
@@ -211,12 +226,13 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
       e_[n] = e;
       band_[n] = band;
       inv_sigma_[n] = kBandSigmas / band;
+      range2_[n] = x * x + y * y;
       ++n;
     }
   }
   count_ = n;
   for (int i = n; i < n + kLanes; ++i)  // weightless padding up to whole vectors
-    x_[i] = y_[i] = e_[i] = band_[i] = inv_sigma_[i] = 0.0f;
+    x_[i] = y_[i] = e_[i] = band_[i] = inv_sigma_[i] = range2_[i] = 0.0f;
 }
 
 std::vector<FloorFit::Point> FloorFit::points() const
@@ -231,19 +247,20 @@ namespace
 {
 /**
  * The weighted normal equations of the plane e = a + b x + c y over points [0, n) (n a multiple of kLanes):
- * Tukey's biweight of each residual at scale window / inv_sigma, weight inv_sigma^2 on top. Sums per lane in
+ * Tukey's biweight of each residual at scale window / inv_sigma, weight inv_sigma^2 on top; points farther than
+ * sqrt(radius2) do not count. Sums per lane in
  * float (independent accumulators, so the lanes vectorise without reassociation), then in double.
  * @param out xx, xy, xz, yy, yz, zz of the matrix, then the right-hand side (3)
  */
 KP_CLONES void normalEquations(const float* __restrict x, const float* __restrict y, const float* __restrict e,
-                               const float* __restrict inv_sigma, int n, float a, float b, float c, float inv_window,
-                               double out[9])
+                               const float* __restrict inv_sigma, const float* __restrict range2, int n, float a,
+                               float b, float c, float inv_window, float radius2, double out[9])
 {
   float acc[9][kLanes] = {};
   for (int i = 0; i < n; i += kLanes)
     for (int j = 0; j < kLanes; ++j)
     {
-      const float px = x[i + j], py = y[i + j], pe = e[i + j], is = inv_sigma[i + j];
+      const float px = x[i + j], py = y[i + j], pe = e[i + j], is = range2[i + j] <= radius2 ? inv_sigma[i + j] : 0.0f;
       const float u = (pe - (a + b * px + c * py)) * is * inv_window;
       const float v = std::max(0.0f, 1.0f - u * u);
       const float w = v * v * is * is;
@@ -267,6 +284,19 @@ KP_CLONES void normalEquations(const float* __restrict x, const float* __restric
 }
 }  // namespace
 
+float FloorFit::nearestFloor() const
+{
+  std::array<int, static_cast<int>(kMaxFitDepth / kRangeBin) + 1> hist{};
+  for (int i = 0; i < count_; ++i)
+    ++hist[std::min(static_cast<int>(hist.size()) - 1, static_cast<int>(std::sqrt(range2_[i]) / kRangeBin))];
+  const int enough = static_cast<int>(kNearFraction * count_);
+  int seen = 0;
+  for (std::size_t k = 0; k < hist.size(); ++k)
+    if ((seen += hist[k]) > enough)
+      return (k + 1) * kRangeBin;
+  return kMaxFitDepth;
+}
+
 FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
 {
   // Prior: each term ~ N(0, bound^2), so that a direction the pixels do not fix (a narrow strip of floor) stays at
@@ -278,11 +308,13 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
   const int n = (count_ + kLanes - 1) / kLanes * kLanes;
   Plane p;
   double sums[9] = {};
-  float window = kWindowStart;
-  for (int it = 0; it < kIterations; ++it, window = std::max(1.0f, 0.5f * window))
+  const float near = nearestFloor();
+  for (const Stage& st : kStages)
   {
-    normalEquations(x_.data(), y_.data(), e_.data(), inv_sigma_.data(), n, static_cast<float>(p.a),
-                    static_cast<float>(p.b), static_cast<float>(p.c), 1.0f / (kTukey * window), sums);
+    const float radius = near + st.radius;
+    normalEquations(x_.data(), y_.data(), e_.data(), inv_sigma_.data(), range2_.data(), n, static_cast<float>(p.a),
+                    static_cast<float>(p.b), static_cast<float>(p.c), 1.0f / (kTukey * st.window), radius * radius,
+                    sums);
     const double reg[6] = {sums[0] + prior_w[0], sums[1], sums[2], sums[3] + prior_w[1], sums[4], sums[5] + prior_w[2]};
     double sol[3];
     if (!solve3(reg, sums + 6, sol))
@@ -319,7 +351,7 @@ void FloorFit::decide(const Plane& p, const Config& cfg, const SensorPose& prior
   const SensorPose fitted = poseFromFloorPlane(corrected, p.a - corrected.height, p.b, p.c);
   out.fit = minus(fitted, prior);
   out.support = p.support;
-  out.pixels = p.support * stride_ * stride_;
+  out.pixels = p.support * kRowStep * col_step_;
   out.spread = p.spread;
   if (out.pixels < cfg.floor_min_pixels)
     out.status = FloorFitStatus::kTooFewPixels;
@@ -377,7 +409,8 @@ SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Co
       sample<float>(depth, camera, config, lut, corrected);
       break;
   }
-  out.stride = stride_;
+  out.row_step = kRowStep;
+  out.col_step = col_step_;
   out.candidates = count_;
   decide(fitPlane(config), config, prior, out);
   learn(out, config, stamp);

@@ -374,11 +374,12 @@ PYBIND11_MODULE(_core, m)
       .def_property_readonly(
           "reason", [](const FloorFitResult& f) { return toString(f.status); },
           "'accepted', 'off', 'too few pixels', 'spread too large', 'out of bounds' or 'ill-conditioned'")
-      .def_readonly("stride", &FloorFitResult::stride, "the fit samples every stride-th pixel of every stride-th row")
+      .def_readonly("row_step", &FloorFitResult::row_step, "the fit samples every row_step-th row")
+      .def_readonly("col_step", &FloorFitResult::col_step, "and every col_step-th pixel of such a row")
       .def_readonly("candidates", &FloorFitResult::candidates, "sampled pixels in the band where the floor can be")
       .def_readonly("support", &FloorFitResult::support, "of those, the sampled pixels on the fitted floor")
       .def_readonly("pixels", &FloorFitResult::pixels,
-                    "image pixels on the fitted floor (support * stride^2), compared with floor_min_pixels")
+                    "image pixels on the fitted floor (support * row_step * col_step), compared with floor_min_pixels")
       .def_readonly("spread", &FloorFitResult::spread, "RMS residual of the support in units of t(d)")
       .def_readonly("fit", &FloorFitResult::fit, "fitted pose minus the prior (also when declined)")
       .def_readonly("correction", &FloorFitResult::applied, "the frame's pose minus the prior")

@@ -110,8 +110,10 @@ TEST_P(SurfaceBand, IsTheMeanOfTheRangesNearTheNearest)
   // The labels and the cleaned image do not change; only the ranges do.
   ASSERT_EQ(cv::norm(nearest.labels, mean.labels, cv::NORM_INF), 0.0);
   // The nearest range from the cleaned (opened) depth, the mean from the measured one.
-  const auto opened = contributions(cam, cfg, nearest, nearest.depth, pitch, c.roll);
-  const auto raw = contributions(cam, cfg, nearest, frame, pitch, c.roll);
+  // binned at the pose the frame was processed at (the floor refinement's)
+  ASSERT_EQ(mean.pose.pitch, nearest.pose.pitch);
+  const auto opened = contributions(cam, cfg, nearest, nearest.depth, nearest.pose.pitch, nearest.pose.roll);
+  const auto raw = contributions(cam, cfg, nearest, frame, nearest.pose.pitch, nearest.pose.roll);
   int compared = 0, bad = 0, moved = 0;
   for (std::size_t b = 0; b < opened.size(); ++b)
   {
