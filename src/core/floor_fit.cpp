@@ -20,7 +20,7 @@ constexpr double kSamples = 2500.0;
 constexpr int kRowStep = 2;
 constexpr double kGolden = 0.6180339887498949;
 // Farther pixels are not sampled: the depth noise and the band of pose uncertainty both grow with distance.
-constexpr float kMaxFitDepth = 6.0f;
+constexpr float kMaxFitDepth = 4.0f;
 // The fit's noise scale of a pixel is band / kBandSigmas: t(d) is about 4.5 sigma + 2 cm for the default curve.
 constexpr float kBandSigmas = 3.0f;
 // Tukey's biweight constant (95 % efficiency on Gaussian noise) in units of the noise scale.
