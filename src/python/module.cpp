@@ -3,6 +3,7 @@
 #include <cstring>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -12,6 +13,7 @@
 
 #include "kinect_pipeline/calibration.h"
 #include "kinect_pipeline/camera.h"
+#include "kinect_pipeline/compressed_depth.h"
 #include "kinect_pipeline/config.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
@@ -96,6 +98,33 @@ py::array_t<float> vecToArray(const std::vector<float>& v)
   py::array_t<float> a(static_cast<py::ssize_t>(v.size()));
   std::copy(v.begin(), v.end(), a.mutable_data());
   return a;
+}
+
+std::string typeName(const py::handle& obj) { return py::str(py::type::handle_of(obj).attr("__name__")); }
+
+/** A CompressedImage's data as bytes: bytes, bytearray, memoryview or a 1-D uint8 array (what rosbags gives). */
+py::buffer_info asBytes(const py::object& obj, const char* what, py::object& keep)
+{
+  const char* expected = ": expected bytes, bytearray, memoryview or a 1-D uint8 numpy array";
+  keep = obj;
+  if (py::isinstance<py::array>(obj))
+  {
+    py::array a = py::reinterpret_borrow<py::array>(obj);
+    if (a.ndim() != 1 || a.dtype().kind() != 'u' || a.itemsize() != 1)
+      throw py::type_error(std::string(what) + ": " + std::to_string(a.ndim()) + "-D array of dtype " +
+                           std::string(py::str(a.dtype())) + expected);
+    keep = py::module_::import("numpy").attr("ascontiguousarray")(a);
+  }
+  else if (!py::isinstance<py::bytes>(obj) && !py::isinstance<py::bytearray>(obj) &&
+           !py::isinstance<py::memoryview>(obj))
+  {
+    throw py::type_error(std::string(what) + ": " + typeName(obj) + expected);
+  }
+  py::buffer_info info = py::reinterpret_borrow<py::buffer>(keep).request();
+  if (info.itemsize != 1 || info.ndim != 1 || (info.shape[0] > 1 && info.strides[0] != 1))
+    throw py::type_error(std::string(what) + ": a " + std::to_string(info.ndim) + "-D view of " +
+                         std::to_string(info.itemsize) + "-byte items" + expected + " (contiguous)");
+  return info;
 }
 
 /** What process() returns; numpy arrays own their memory. */
@@ -664,6 +693,65 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("metres"), py::arg("encoding"), py::arg("max_depth") = 12.0,
       "Float metres -> 8UC1 normalised / 16UC1 mm / 32FC1 (unknown -> 0, NaN kept for float).");
+  const CompressedDepthOptions cd_defaults;
+  m.def(
+      "decode_compressed_depth",
+      [](const py::object& format, const py::object& data, std::optional<std::pair<int, int>> expected_shape) {
+        if (!py::isinstance<py::str>(format))
+          throw py::type_error("format: " + typeName(format) + ": expected a str such as '16UC1; compressedDepth png'");
+        const std::string f = format.cast<std::string>();
+        cv::Size expected;
+        if (expected_shape)
+        {
+          const auto [h, w] = *expected_shape;
+          if (h < 1 || w < 1)
+            throw py::value_error("expected_shape = (" + std::to_string(h) + ", " + std::to_string(w) +
+                                  "): expected (height, width) of at least one pixel each, or None");
+          expected = cv::Size(w, h);
+        }
+        py::object keep;
+        const py::buffer_info bytes = asBytes(data, "data", keep);
+        cv::Mat depth;
+        {
+          py::gil_scoped_release release;
+          depth = decodeCompressedDepth(f, static_cast<const std::uint8_t*>(bytes.ptr),
+                                        static_cast<std::size_t>(bytes.size), expected);
+        }
+        return matToArray(depth);
+      },
+      py::arg("format"), py::arg("data"), py::arg("expected_shape") = py::none(),
+      "A compressedDepth CompressedImage (its format and data: bytes or a uint8 array) as a depth image: uint16 [mm, "
+      "0 unknown] for 16UC1, float32 [m, NaN unknown] for 32FC1. Formats: '<16UC1|32FC1>; compressedDepth [png|rvl]'. "
+      "expected_shape (height, width) refuses other sizes. Raises ValueError naming what is wrong with the payload.");
+  m.def(
+      "encode_compressed_depth",
+      [](const py::object& depth, const std::string& codec, double depth_max, double depth_quantization,
+         int png_level) {
+        if (py::isinstance<py::array>(depth))
+        {
+          py::dtype dt = py::reinterpret_borrow<py::array>(depth).dtype();
+          if (cvTypeOf(dt) != CV_16UC1 && cvTypeOf(dt) != CV_32FC1)
+            throw py::type_error("depth: dtype " + std::string(py::str(dt)) + ": expected uint16 (mm) or float32 (m)");
+        }
+        py::object keep;
+        const cv::Mat m = asMat(depth, "depth", keep);
+        CompressedDepthOptions o;
+        o.codec = depthCodecFromString(codec);
+        o.depth_max = depth_max;
+        o.depth_quantization = depth_quantization;
+        o.png_level = png_level;
+        CompressedDepth c;
+        {
+          py::gil_scoped_release release;
+          c = encodeCompressedDepth(m, o);
+        }
+        return py::make_tuple(c.format, py::bytes(reinterpret_cast<const char*>(c.data.data()), c.data.size()));
+      },
+      py::arg("depth"), py::arg("codec") = toString(cd_defaults.codec), py::arg("depth_max") = cd_defaults.depth_max,
+      py::arg("depth_quantization") = cd_defaults.depth_quantization, py::arg("png_level") = cd_defaults.png_level,
+      "(format, data) of a compressedDepth CompressedImage, as compressed_depth_image_transport writes it: a "
+      "uint16 [mm] or float32 [m] image, codec 'png' or 'rvl'; pixels beyond depth_max [m] become 0 (unknown); "
+      "float32 is stored as 16-bit inverse depth with depthQuantA = z0 (z0 + 1), z0 = depth_quantization.");
   m.def(
       "colour_labels",
       [](const py::object& depth, const py::object& labels, double max_depth) {

@@ -5,27 +5,11 @@
 
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
-namespace
-{
-// Expects std::invalid_argument whose message contains every one of the given words.
-template <typename F>
-void expectInvalid(F f, std::initializer_list<const char*> words)
-{
-  try
-  {
-    f();
-    FAIL() << "no exception";
-  }
-  catch (const std::invalid_argument& e)
-  {
-    for (const char* w : words)
-      EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << "'" << w << "' not in: " << e.what();
-  }
-}
-}  // namespace
+using kp_test::expectInvalid;
 
 TEST(Camera, FromFovRoundTrips)
 {

@@ -3,9 +3,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
@@ -116,6 +121,22 @@ inline void binRow(const std::vector<double>& f, const std::vector<double>& rng,
     if (counts)
       ++(*counts)[k];
   });
+}
+
+/** Expects std::invalid_argument from @p f whose message contains every one of @p words. */
+template <typename F>
+void expectInvalid(F f, std::initializer_list<const char*> words)
+{
+  try
+  {
+    f();
+    FAIL() << "no exception";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    for (const char* w : words)
+      EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << "'" << w << "' not in: " << e.what();
+  }
 }
 
 }  // namespace kp_test
