@@ -115,8 +115,15 @@ struct Config
   int num_threads = 0;  ///< OpenMP threads for one frame; 0 = OpenMP's default
 
   /**
+   * @brief Every invalid field and combination, one message each ("Config.<field> = <value>: expected ...");
+   *        empty when the config is valid. A combination is judged only when its fields are valid on their own.
+   */
+  std::vector<std::string> problems() const;
+
+  /**
    * @brief Checks every field and their combinations.
-   * @throw std::invalid_argument naming the field(s), the value(s) and what was expected.
+   * @throw std::invalid_argument naming the field(s), the value(s) and what was expected: every problem(), joined
+   *        by "; ".
    */
   void validate() const;
 };

@@ -44,4 +44,11 @@ std::array<double, 3> rollPitchYaw(const std::array<double, 4>& q);
  */
 SensorPose poseFromOpticalTransform(const RigidTransform& base_from_optical, double base_frame_height, double& yaw);
 
+/**
+ * @brief Where the gravity-aligned frame at the sensor lies in its optical frame: the transform optical <- level
+ *        (no translation), the level frame being x along the sensor's heading, y left, z up (the LaserScan's frame).
+ * @param pose the sensor's pitch (+ looks down) and roll (+ right side down) [rad]; the height is not used
+ */
+RigidTransform opticalFromLevel(const SensorPose& pose);
+
 }  // namespace kinect_pipeline

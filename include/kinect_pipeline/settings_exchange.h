@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <utility>
@@ -83,14 +84,17 @@ class FramePipeline
 {
 public:
   /**
-   * @brief Processes one frame at a pose given whole (Pipeline::process(depth, pose, out)).
+   * @brief Processes one frame at a pose given whole (Pipeline::process(depth, pose, out, stamp)).
+   * @param stamp the frame's time [s] (the image's stamp), for the floor refinement's learned correction
    * @throw std::invalid_argument when the pipeline refuses the config, the camera, the image or the pose; the
    *        config and camera in force stay as they were, and the next frame tries again.
    */
   void process(const std::shared_ptr<const Config>& config, const Camera& camera, const cv::Mat& depth,
-               const SensorPose& pose, FrameResult& out);
-  /** @brief Forgets the confidence history (no-op before the first frame). */
+               const SensorPose& pose, FrameResult& out, double stamp = std::numeric_limits<double>::quiet_NaN());
+  /** @brief Forgets the confidence history and the learned floor correction (no-op before the first frame). */
   void reset();
+  /** @return the pipeline (null before the first frame), e.g. for its floorFit().learned(). */
+  const Pipeline* pipeline() const { return pipeline_.get(); }
   /** @return the config in force (null before the first frame). */
   const std::shared_ptr<const Config>& config() const { return config_; }
   /** @return how many times the config was applied (the first frame included). */

@@ -15,25 +15,42 @@ constexpr double kHalfPi = 1.57079632679489661923;
 
 [[noreturn]] void fail(const std::string& msg) { throw std::invalid_argument(msg); }
 
-void requireRange(const char* name, double v, double lo, double hi, const char* unit)
+/** Collects every problem of a config, so that one message can name them all. */
+class Problems
 {
-  if (!(std::isfinite(v) && v >= lo && v <= hi))
+public:
+  explicit Problems(std::vector<std::string>& out) : out_(out) {}
+  /** @return false (and records why) unless lo <= v <= hi. */
+  bool range(const char* name, double v, double lo, double hi, const char* unit)
   {
+    if (std::isfinite(v) && v >= lo && v <= hi)
+      return true;
     std::ostringstream s;
     s << "Config." << name << " = " << v << ": expected a value in [" << lo << ", " << hi << "] " << unit;
-    fail(s.str());
+    add(s.str());
+    return false;
   }
-}
-
-void requirePositive(const char* name, double v, const char* unit)
-{
-  if (!(std::isfinite(v) && v > 0.0))
+  bool positive(const char* name, double v, const char* unit)
   {
+    if (std::isfinite(v) && v > 0.0)
+      return true;
     std::ostringstream s;
     s << "Config." << name << " = " << v << ": expected a finite value > 0 " << unit;
-    fail(s.str());
+    add(s.str());
+    return false;
   }
-}
+  /** @return @p ok; records @p what (a stream of the message) when it is false. */
+  bool check(bool ok, const std::ostringstream& what)
+  {
+    if (!ok)
+      add(what.str());
+    return ok;
+  }
+  void add(const std::string& msg) { out_.push_back(msg); }
+
+private:
+  std::vector<std::string>& out_;
+};
 
 std::string trim(const std::string& s)
 {
@@ -130,73 +147,90 @@ std::string toString(KernelShape k)
   return k == KernelShape::kRect ? "rect" : (k == KernelShape::kCross ? "cross" : "ellipse");
 }
 
-void Config::validate() const
+std::vector<std::string> Config::problems() const
 {
-  requireRange("sensor_height", sensor_height, 0.01, 100.0, "m (height of the optical centre above the floor)");
-  requireRange("sensor_pitch", sensor_pitch, -kHalfPi, kHalfPi, "rad (+ looks down)");
-  requireRange("sensor_roll", sensor_roll, -kHalfPi, kHalfPi, "rad (+ right side down)");
-  requirePositive("ceiling_height", ceiling_height, "m");
-  if (!(ceiling_height > sensor_height))
+  std::vector<std::string> out;
+  Problems p(out);
+  const bool height_ok =
+      p.range("sensor_height", sensor_height, 0.01, 100.0, "m (height of the optical centre above the floor)");
+  p.range("sensor_pitch", sensor_pitch, -kHalfPi, kHalfPi, "rad (+ looks down)");
+  p.range("sensor_roll", sensor_roll, -kHalfPi, kHalfPi, "rad (+ right side down)");
+  if (p.positive("ceiling_height", ceiling_height, "m") && height_ok)
   {
     std::ostringstream s;
     s << "Config.ceiling_height = " << ceiling_height << " m is not above Config.sensor_height = " << sensor_height
       << " m: the ceiling plane must be above the sensor";
-    fail(s.str());
+    p.check(ceiling_height > sensor_height, s);
   }
-  requireRange("max_depth", max_depth, 0.1, 1000.0, "m (depth of 8-bit value 255)");
-  if (open_kernel_size < 0 || open_kernel_size > 31 || (open_kernel_size > 1 && open_kernel_size % 2 == 0))
+  p.range("max_depth", max_depth, 0.1, 1000.0, "m (depth of 8-bit value 255)");
   {
     std::ostringstream s;
     s << "Config.open_kernel_size = " << open_kernel_size << ": expected 0 or 1 (off) or an odd size 3..31 px";
-    fail(s.str());
+    p.check(!(open_kernel_size < 0 || open_kernel_size > 31 || (open_kernel_size > 1 && open_kernel_size % 2 == 0)),
+            s);
   }
-  validateThresholdCurve(threshold_curve);
-  requireRange("range_min", range_min, 0.0, 1000.0, "m");
-  requireRange("range_max", range_max, 0.0, 1000.0, "m");
-  if (!(range_max > range_min))
+  try
+  {
+    validateThresholdCurve(threshold_curve);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    p.add(e.what());
+  }
+  // '&', not '&&': both limits are judged (and reported) on their own.
+  const bool limits_ok = p.range("range_min", range_min, 0.0, 1000.0, "m") &
+                         p.range("range_max", range_max, 0.0, 1000.0, "m");
+  if (limits_ok)
   {
     std::ostringstream s;
     s << "Config.range_max = " << range_max << " m must be greater than Config.range_min = " << range_min << " m";
-    fail(s.str());
+    p.check(range_max > range_min, s);
   }
-  if (scan_beams < 0 || scan_beams > 100000)
   {
     std::ostringstream s;
     s << "Config.scan_beams = " << scan_beams << ": expected 0 (image width) or 1..100000 beams";
-    fail(s.str());
+    p.check(scan_beams >= 0 && scan_beams <= 100000, s);
   }
-  requireRange("scan_fov", scan_fov, 0.0, 2.0 * 3.14159265358979323846, "rad (0 = the camera's)");
-  requireRange("surface_band", surface_band, 0.0, 10.0, "(a multiple of the threshold curve t(d); 0 = nearest pixel)");
-  if (cliff_min_pixels < 1 || cliff_min_pixels > 100000)
+  p.range("scan_fov", scan_fov, 0.0, 2.0 * 3.14159265358979323846, "rad (0 = the camera's)");
+  p.range("surface_band", surface_band, 0.0, 10.0, "(a multiple of the threshold curve t(d); 0 = nearest pixel)");
   {
     std::ostringstream s;
     s << "Config.cliff_min_pixels = " << cliff_min_pixels << ": expected 1..100000 pixels per beam";
-    fail(s.str());
+    p.check(cliff_min_pixels >= 1 && cliff_min_pixels <= 100000, s);
   }
-  if (confidence_window < 1 || confidence_window > 1000)
   {
     std::ostringstream s;
     s << "Config.confidence_window = " << confidence_window << ": expected 1..1000 frames";
-    fail(s.str());
+    p.check(confidence_window >= 1 && confidence_window <= 1000, s);
   }
-  requirePositive("confidence_distance", confidence_distance, "m");
-  requireRange("min_intensity", min_intensity, 0.0, 1.0, "");
-  requireRange("floor_max_height_error", floor_max_height_error, 0.001, 1.0, "m");
-  requireRange("floor_max_pitch_error", floor_max_pitch_error, 0.0001, 0.5, "rad");
-  requireRange("floor_max_roll_error", floor_max_roll_error, 0.0001, 0.5, "rad");
-  if (floor_min_pixels < 1 || floor_min_pixels > 100000000)
+  p.positive("confidence_distance", confidence_distance, "m");
+  p.range("min_intensity", min_intensity, 0.0, 1.0, "");
+  p.range("floor_max_height_error", floor_max_height_error, 0.001, 1.0, "m");
+  p.range("floor_max_pitch_error", floor_max_pitch_error, 0.0001, 0.5, "rad");
+  p.range("floor_max_roll_error", floor_max_roll_error, 0.0001, 0.5, "rad");
   {
     std::ostringstream s;
     s << "Config.floor_min_pixels = " << floor_min_pixels << ": expected 1..100000000 image pixels";
-    fail(s.str());
+    p.check(floor_min_pixels >= 1 && floor_min_pixels <= 100000000, s);
   }
-  requireRange("floor_learn_time", floor_learn_time, 0.0, 3600.0, "s (0 = learn nothing)");
-  if (num_threads < 0 || num_threads > 1024)
+  p.range("floor_learn_time", floor_learn_time, 0.0, 3600.0, "s (0 = learn nothing)");
   {
     std::ostringstream s;
     s << "Config.num_threads = " << num_threads << ": expected 0 (OpenMP default) or 1..1024";
-    fail(s.str());
+    p.check(num_threads >= 0 && num_threads <= 1024, s);
   }
+  return out;
+}
+
+void Config::validate() const
+{
+  const std::vector<std::string> all = problems();
+  if (all.empty())
+    return;
+  std::string msg = all.front();
+  for (std::size_t i = 1; i < all.size(); ++i)
+    msg += "; " + all[i];
+  fail(msg);
 }
 
 }  // namespace kinect_pipeline

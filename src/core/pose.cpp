@@ -110,15 +110,31 @@ std::array<double, 3> rollPitchYaw(const std::array<double, 4>& q)
   return {roll, pitch, yaw};
 }
 
-SensorPose poseFromOpticalTransform(const RigidTransform& base_from_optical, double base_frame_height, double& yaw)
+namespace
 {
-  // The sensor body (x forward, y left, z up) seen from the optical frame (x right, y down, z forward).
+/** The sensor body (x forward, y left, z up) seen from the optical frame (x right, y down, z forward). */
+RigidTransform opticalFromBody()
+{
   RigidTransform optical_from_body;
   optical_from_body.q = {0.5, -0.5, 0.5, 0.5};
-  RigidTransform base_from_body = base_from_optical * optical_from_body;
+  return optical_from_body;
+}
+}  // namespace
+
+SensorPose poseFromOpticalTransform(const RigidTransform& base_from_optical, double base_frame_height, double& yaw)
+{
+  RigidTransform base_from_body = base_from_optical * opticalFromBody();
   const auto rpy = rollPitchYaw(base_from_body.q);
   yaw = rpy[2];
   return SensorPose{base_from_optical.t[2] + base_frame_height, rpy[1], rpy[0]};
+}
+
+RigidTransform opticalFromLevel(const SensorPose& pose)
+{
+  // level <- body is the pitch and roll alone (the level frame carries the sensor's yaw).
+  RigidTransform level_from_body;
+  level_from_body.q = quaternionFromRpy(pose.roll, pose.pitch, 0.0);
+  return opticalFromBody() * level_from_body.inverse();
 }
 
 }  // namespace kinect_pipeline

@@ -6,7 +6,7 @@ namespace kinect_pipeline
 {
 
 void FramePipeline::process(const std::shared_ptr<const Config>& config, const Camera& camera, const cv::Mat& depth,
-                            const SensorPose& pose, FrameResult& out)
+                            const SensorPose& pose, FrameResult& out, double stamp)
 {
   if (!config)
     throw std::invalid_argument("FramePipeline::process: no config (null pointer)");
@@ -31,7 +31,7 @@ void FramePipeline::process(const std::shared_ptr<const Config>& config, const C
       camera_ = camera;
     }
   }
-  pipeline_->process(depth, pose, out);
+  pipeline_->process(depth, pose, out, stamp);
 }
 
 void FramePipeline::reset()

@@ -56,6 +56,27 @@ TEST(Config, RefusesBadFieldsNamingThem)
   expectInvalid(with([](Config& c) { c.threshold_curve = {{1.0, 0.0}, {2.0, 0.2}}; }), {"point 0", "> 0"});
 }
 
+TEST(Config, ProblemsNameEveryBadFieldAtOnce)
+{
+  EXPECT_TRUE(Config().problems().empty());
+  Config c;
+  c.ceiling_height = 0.5;  // below the sensor: a combination
+  c.open_kernel_size = 4;
+  c.range_min = -1.0;      // invalid on its own: its combination with range_max is not judged
+  c.num_threads = 5000;
+  c.range_max = 4.0;       // valid, so not named
+  const std::vector<std::string> all = c.problems();
+  ASSERT_EQ(all.size(), 4u);
+  EXPECT_NE(all[0].find("ceiling_height = 0.5"), std::string::npos) << all[0];
+  EXPECT_NE(all[1].find("open_kernel_size = 4"), std::string::npos) << all[1];
+  EXPECT_NE(all[2].find("range_min = -1"), std::string::npos) << all[2];
+  EXPECT_NE(all[3].find("num_threads = 5000"), std::string::npos) << all[3];
+  expectInvalid([&] { c.validate(); }, {"ceiling_height = 0.5", "; Config.open_kernel_size = 4", "range_min = -1",
+                                        "num_threads = 5000"});
+  for (const std::string& m : all)
+    EXPECT_EQ(m.find("range_max"), std::string::npos) << m;
+}
+
 TEST(Config, CurveTextRoundTrips)
 {
   const auto curve = defaultThresholdCurve();

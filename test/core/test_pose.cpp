@@ -97,3 +97,33 @@ TEST(Pose, SensorPoseFromTheOpticalFrame)
         EXPECT_NEAR(m[8], kp_test::rayWorld(kinect_pipeline::Camera(3, 3, 1, 1, 1, 1), 1, 1, pitch, roll).z, 1e-9);
       }
 }
+
+TEST(Pose, LevelFrameInTheOpticalFrame)
+{
+  // The level frame at the sensor (the scan's frame) seen from the optical frame: its z is the world's up, its x
+  // the sensor's heading, whatever the pitch and roll; the test builds the optical axes from explicit matrices.
+  for (double pitch : {0.0, 0.26, -0.4})
+    for (double roll : {0.0, 0.035, -0.2})
+    {
+      const auto m = opticalFromLevel(SensorPose{1.1, pitch, roll}).matrix();  // row-major optical <- level
+      const double cp = std::cos(pitch), sp = std::sin(pitch), cr = std::cos(roll), sr = std::sin(roll);
+      // Up (0, 0, 1) of the level frame in optical coordinates (x right, y down, z forward): a sensor looking down
+      // sees up behind its optical axis (z < 0), one rolled right side down sees it to its left (x < 0).
+      const double up[3] = {-sr * cp, -cr * cp, -sp};
+      // The heading (1, 0, 0), forward and level: above the optical axis (y < 0) of a sensor looking down.
+      const double fwd[3] = {-sr * sp, -cr * sp, cp};
+      for (int i = 0; i < 3; ++i)
+      {
+        EXPECT_NEAR(m[3 * i + 2], up[i], 1e-9) << "pitch " << pitch << " roll " << roll << " row " << i;
+        EXPECT_NEAR(m[3 * i + 0], fwd[i], 1e-9) << "pitch " << pitch << " roll " << roll << " row " << i;
+      }
+      // And poseFromOpticalTransform reads the same pose back from base <- optical = (optical <- level)^-1.
+      double yaw = 1.0;
+      RigidTransform base_from_optical = opticalFromLevel(SensorPose{1.1, pitch, roll}).inverse();
+      base_from_optical.t = {0.0, 0.0, 1.1};
+      const SensorPose back = poseFromOpticalTransform(base_from_optical, 0.0, yaw);
+      EXPECT_NEAR(back.pitch, pitch, 1e-9);
+      EXPECT_NEAR(back.roll, roll, 1e-9);
+      EXPECT_NEAR(yaw, 0.0, 1e-9);
+    }
+}
