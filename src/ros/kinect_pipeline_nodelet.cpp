@@ -14,7 +14,19 @@ class KinectPipelineNodelet : public nodelet::Nodelet
 private:
   void onInit() override
   {
-    impl_ = std::make_unique<KinectPipelineRos>(getNodeHandle(), getPrivateNodeHandle(), getName());
+    // The manager logs an exception from here with its reason, but the loader process (what the user launched)
+    // only says that loading failed: ~startup_error tells the launch file's loader (scripts/load_into_manager) why.
+    ros::NodeHandle& pnh = getPrivateNodeHandle();
+    pnh.deleteParam("startup_error");
+    try
+    {
+      impl_ = std::make_unique<KinectPipelineRos>(getNodeHandle(), pnh, getName());
+    }
+    catch (const StartupError& e)
+    {
+      pnh.setParam("startup_error", std::string(e.what()));
+      throw;
+    }
   }
   std::unique_ptr<KinectPipelineRos> impl_;
 };

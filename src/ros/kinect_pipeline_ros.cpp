@@ -1,18 +1,40 @@
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <sstream>
 #include <stdexcept>
 
 #include <boost/make_shared.hpp>
 #include <geometry_msgs/TransformStamped.h>
+#include <image_transport/camera_common.h>
+#include <image_transport/exception.h>
 #include <sensor_msgs/LaserScan.h>
 #include <tf2/LinearMath/Quaternion.h>
 
+#include "kinect_pipeline/compressed_depth.h"
+#include "kinect_pipeline/pose.h"
 #include "kinect_pipeline/ros/conversions.h"
 
 namespace kinect_pipeline
 {
+namespace
+{
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+using Clock = std::chrono::steady_clock;
+
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+std::string seconds(const ros::Time& t)
+{
+  std::ostringstream s;
+  s.precision(9);
+  s << std::fixed << t.toSec();
+  return s.str();
+}
+
+}  // namespace
 
 const char* toString(DropReason r)
 {
@@ -22,6 +44,8 @@ const char* toString(DropReason r)
       return "unsupported encoding";
     case DropReason::kImage:
       return "malformed image";
+    case DropReason::kCompressed:
+      return "bad compressedDepth payload";
     case DropReason::kCameraInfo:
       return "bad camera_info";
     case DropReason::kSize:
@@ -41,55 +65,6 @@ const char* toString(DropReason r)
   }
 }
 
-NodeSettings settingsFromConfig(const KinectPipelineConfig& c)
-{
-  NodeSettings s;
-  Config& k = s.core;
-  k.sensor_height = c.sensor_height;
-  k.sensor_pitch = c.sensor_pitch;
-  k.sensor_roll = c.sensor_roll;
-  k.ceiling_height = c.ceiling_height;
-  k.max_depth = c.max_depth;
-  k.geometry = geometryFromString(c.geometry);
-  k.projection = projectionFromString(c.projection);
-  k.open_kernel_size = c.open_kernel_size;
-  k.open_kernel_shape = kernelShapeFromString(c.open_kernel_shape);
-  k.threshold_curve = parseThresholdCurve(c.threshold_curve);
-  k.range_min = c.range_min;
-  k.range_max = c.range_max;
-  k.scan_beams = c.scan_beams;
-  k.scan_fov = c.scan_fov;
-  k.cliff_scan = c.cliff_scan;
-  k.cliff_in_scan = c.cliff_in_scan;
-  k.surface_band = c.surface_band;
-  k.cliff_min_pixels = c.cliff_min_pixels;
-  k.confidence_window = c.confidence_window;
-  k.confidence_distance = c.confidence_distance;
-  k.min_intensity = c.min_intensity;
-  k.intensity_filter = c.intensity_filter;
-  k.num_threads = c.num_threads;
-  k.validate();
-  s.pose_source = c.pose_source;
-  if (s.pose_source != "tf" && s.pose_source != "imu" && s.pose_source != "pitch_topic" && s.pose_source != "static")
-    throw std::invalid_argument("pose_source = '" + s.pose_source + "': expected tf, imu, pitch_topic or static");
-  s.pose_fallback = c.pose_fallback;
-  if (s.pose_fallback != "static" && s.pose_fallback != "last" && s.pose_fallback != "drop")
-    throw std::invalid_argument("pose_fallback = '" + s.pose_fallback + "': expected static, last or drop");
-  s.base_frame = c.base_frame;
-  s.scan_frame = c.scan_frame;
-  if (s.pose_source == "tf" && s.base_frame.empty())
-    throw std::invalid_argument("base_frame is empty but pose_source = 'tf' needs a gravity-aligned base frame");
-  if (s.scan_frame.empty())
-    throw std::invalid_argument("scan_frame is empty: the LaserScan needs a frame");
-  if (s.scan_frame == s.base_frame)
-    throw std::invalid_argument("scan_frame = base_frame = '" + s.base_frame + "': the node broadcasts base_frame -> "
-                                "scan_frame, so they must differ");
-  s.base_frame_height = c.base_frame_height;
-  s.tf_timeout = c.tf_timeout;
-  s.pose_max_age = c.pose_max_age;
-  return s;
-}
-
 KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name)
   : nh_(nh)
   , pnh_(pnh)
@@ -99,11 +74,18 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   , diagnostics_(nh, pnh)
   , input_freq_(diagnostic_updater::FrequencyStatusParam(&min_freq_, &max_freq_, 0.1, 10))
 {
+  // First what may stop the node, before anything runs: every bad parameter at once, and the transport.
+  for (const std::string& w : unknownParameterWarnings(pnh_))
+    ROS_WARN("%s: %s", name_.c_str(), w.c_str());
+  startupSettings(pnh_, name_);
+  const std::string transport = checkTransport();
+
   // Everything a callback touches exists before the first subscription: in a nodelet manager with several
   // threads, callbacks may run before this constructor returns.
   diagnostics_.setHardwareID(name_);
-  diagnostics_.add(input_freq_);
+  diagnostics_.add("Frequency Status", this, &KinectPipelineRos::diagnoseRate);
   diagnostics_.add("processing", this, &KinectPipelineRos::diagnose);
+  diagnostics_.add("floor refinement", this, &KinectPipelineRos::diagnoseFloor);
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<KinectPipelineConfig>>(reconfigure_mutex_, pnh_);
   reconfigure_->setCallback([this](KinectPipelineConfig& c, uint32_t level) { reconfigureCb(c, level); });
   // roscpp does not register again with a restarted master: this does, for the whole process.
@@ -112,9 +94,12 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
       std::vector<std::string>{pnh_.resolveName("set_parameters"), me + "/get_loggers", me + "/set_logger_level",
                                me + "/load_nodelet", me + "/unload_nodelet", me + "/list"},
       [this] { republishParameters(); });
-  // Diagnostics keep coming when every frame is dropped or none arrives; only this timer publishes them.
-  diagnostics_timer_ =
-      nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) { diagnostics_.update(); });
+  // Diagnostics keep coming when every frame is dropped, none arrives, or ROS time jumps back (Updater::update()
+  // would wait for ROS time to pass its next deadline again): only this wall timer publishes them.
+  diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) {
+    checkClock();
+    diagnostics_.force_update();
+  });
 
   scan_pub_ = nh_.advertise<sensor_msgs::LaserScan>("scan", 10);
   cliff_pub_ = nh_.advertise<sensor_msgs::LaserScan>("cliff_scan", 10);
@@ -122,11 +107,56 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   debug_pub_ = it_.advertise("image_labels", 1);
   imu_sub_ = nh_.subscribe("imu", 50, &KinectPipelineRos::imuCb, this);
   pitch_sub_ = nh_.subscribe("base_pitch", 50, &KinectPipelineRos::pitchCb, this);
-  // ~image_transport selects the transport (raw, compressedDepth, ...).
-  sub_ = it_.subscribeCamera("image", 2, &KinectPipelineRos::imageCb, this,
-                             image_transport::TransportHints("raw", ros::TransportHints().tcpNoDelay(), pnh_));
-  ROS_INFO("%s: listening on %s (+ camera_info), publishing %s", name_.c_str(), sub_.getTopic().c_str(),
-           scan_pub_.getTopic().c_str());
+  subscribe(transport);
+}
+
+std::string KinectPipelineRos::checkTransport()
+{
+  std::string transport;
+  pnh_.param<std::string>("image_transport", transport, "raw");
+  if (transport == "raw" || transport == "compressedDepth")
+    return transport;
+  std::vector<std::string> loadable;
+  for (std::string t : it_.getLoadableTransports())
+    loadable.push_back(t.rfind("image_transport/", 0) == 0 ? t.substr(16) : t);
+  if (std::find(loadable.begin(), loadable.end(), transport) != loadable.end())
+    return transport;
+  std::string names;
+  for (const std::string& t : loadable)
+    names += (names.empty() ? "" : ", ") + t;
+  throw StartupError(name_ + ": ~image_transport = '" + transport +
+                     "': no image_transport plugin for it is installed (image_transport can load: " + names +
+                     "). Expected raw, compressedDepth (decoded by kinect_pipeline itself) or an installed transport.");
+}
+
+void KinectPipelineRos::subscribe(const std::string& transport)
+{
+  const std::string image = nh_.resolveName("image");
+  if (transport == "compressedDepth")
+  {
+    // Debian has image_transport's raw plugin only: compressedDepth is decoded here, from the topic its
+    // publisher writes (compressed_depth_image_transport: <image>/compressedDepth).
+    const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+    compressed_sub_.subscribe(nh_, image + "/compressedDepth", 2, hints);
+    info_sub_.subscribe(nh_, image_transport::getCameraInfoTopic(image), 2, hints);
+    sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::CompressedImage, sensor_msgs::CameraInfo>>(
+        compressed_sub_, info_sub_, 5);
+    sync_->registerCallback(&KinectPipelineRos::compressedCb, this);
+    ROS_INFO("%s: listening on %s/compressedDepth (decoded here) + %s, publishing %s", name_.c_str(), image.c_str(),
+             image_transport::getCameraInfoTopic(image).c_str(), scan_pub_.getTopic().c_str());
+    return;
+  }
+  try
+  {
+    sub_ = it_.subscribeCamera("image", 2, &KinectPipelineRos::imageCb, this,
+                               image_transport::TransportHints(transport, ros::TransportHints().tcpNoDelay(), pnh_));
+  }
+  catch (const image_transport::TransportLoadException& e)
+  {
+    throw StartupError(name_ + ": ~image_transport = '" + transport + "' cannot be loaded: " + e.what());
+  }
+  ROS_INFO("%s: listening on %s (+ camera_info, transport %s), publishing %s", name_.c_str(), sub_.getTopic().c_str(),
+           transport.c_str(), scan_pub_.getTopic().c_str());
 }
 
 void KinectPipelineRos::republishParameters()
@@ -140,6 +170,8 @@ KinectPipelineRos::~KinectPipelineRos()
 {
   // Stop what calls into this object before its members go.
   sub_.shutdown();
+  compressed_sub_.unsubscribe();
+  info_sub_.unsubscribe();
   imu_sub_.shutdown();
   pitch_sub_.shutdown();
   diagnostics_timer_.stop();
@@ -157,21 +189,16 @@ void KinectPipelineRos::reconfigureCb(KinectPipelineConfig& config, uint32_t /*l
   }
   catch (const std::invalid_argument& e)
   {
+    // The startup check refused bad values already: this is a change at run time.
+    if (!have_good_config_)
+      throw StartupError(name_ + ": not starting: " + e.what());
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++params_refused_;
       last_problem_ = std::string("parameters refused: ") + e.what();
     }
     ROS_ERROR("%s: parameters refused: %s; keeping the previous values", name_.c_str(), e.what());
-    if (have_good_config_)
-      config = last_good_config_;  // the server then publishes the values in force
-    else
-    {
-      config = KinectPipelineConfig::__getDefault__();
-      exchange_.post(std::make_shared<const NodeSettings>(settingsFromConfig(config)));
-      last_good_config_ = config;
-      have_good_config_ = true;
-    }
+    config = last_good_config_;  // the server then publishes the values in force
   }
 }
 
@@ -217,87 +244,59 @@ void KinectPipelineRos::drop(DropReason reason, const std::string& message)
               message.c_str(), static_cast<unsigned long long>(count));
 }
 
-bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& header, SensorPose& pose, double& yaw,
-                                bool& have_position, geometry_msgs::Vector3& position)
+std::uint64_t KinectPipelineRos::checkClock()
 {
-  const Config& k = s.core;
-  const SensorPose fixed{k.sensor_height, k.sensor_pitch, k.sensor_roll};
-  have_position = false;
-  yaw = 0.0;
-  std::string why;
-  if (s.pose_source == "static")
+  std::lock_guard<std::mutex> lock(clock_mutex_);
+  const ros::Time now = ros::Time::now();
+  if (!clock_seen_ && !now.isZero())
   {
-    pose = fixed;
-    return true;
+    // The first clock (with use_sim_time, /clock may start after the node): the rate window starts here, not
+    // at time 0, which would report "Frequency too low" until the window had rolled over.
+    clock_seen_ = true;
+    input_freq_.clear();
   }
-  if (s.pose_source == "tf")
+  else if (clock_seen_ && now < last_clock_)
   {
-    try
+    ++clock_epoch_;
     {
-      const geometry_msgs::TransformStamped t =
-          tf_buffer_.lookupTransform(s.base_frame, header.frame_id, header.stamp, ros::Duration(s.tf_timeout));
-      pose = conversions::poseFromOpticalTransform(t.transform, s.base_frame_height, yaw);
-      position = t.transform.translation;
-      have_position = true;
-      last_pose_ = pose;
-      last_yaw_ = yaw;
-      last_pose_stamp_ = header.stamp;
-      last_pose_valid_ = true;
-      return true;
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++clock_resets_;
     }
-    catch (const tf2::TransformException& e)
-    {
-      why = std::string("no transform ") + s.base_frame + " <- " + header.frame_id + " at the image stamp: " + e.what();
-    }
+    input_freq_.clear();
+    ROS_WARN("%s: ROS time jumped back from %.3f to %.3f s (a bag played again with --clock, a simulation "
+             "restarted): starting over (stamps, pose, confidence, rate window, learned floor correction)",
+             name_.c_str(), last_clock_.toSec(), now.toSec());
+    clock_seen_ = !now.isZero();
   }
-  else
-  {
-    TopicPose topic;
-    {
-      std::lock_guard<std::mutex> lock(topic_mutex_);
-      topic = s.pose_source == "imu" ? imu_pose_ : pitch_pose_;
-    }
-    const double age = topic.valid ? std::fabs((header.stamp - topic.stamp).toSec()) : 1e9;
-    if (topic.valid && age <= s.pose_max_age)
-    {
-      pose = SensorPose{k.sensor_height, k.sensor_pitch + topic.pitch, k.sensor_roll + topic.roll};
-      return true;
-    }
-    std::ostringstream m;
-    m << (s.pose_source == "imu" ? "imu" : "base_pitch") << " topic: "
-      << (topic.valid ? "last message " + std::to_string(age) + " s from the image stamp" : "nothing received yet")
-      << " (pose_max_age " << s.pose_max_age << " s)";
-    why = m.str();
-  }
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++pose_fallbacks_;
-    last_problem_ = why;
-  }
-  if (s.pose_fallback == "static")
-  {
-    ROS_WARN_THROTTLE(5.0, "%s: %s; using the static pose (pose_fallback = static)", name_.c_str(), why.c_str());
-    pose = fixed;
-    return true;
-  }
-  if (s.pose_fallback == "last" && last_pose_valid_ &&
-      std::fabs((header.stamp - last_pose_stamp_).toSec()) <= s.pose_max_age)
-  {
-    ROS_WARN_THROTTLE(5.0, "%s: %s; using the last pose (pose_fallback = last)", name_.c_str(), why.c_str());
-    pose = last_pose_;
-    yaw = last_yaw_;
-    return true;
-  }
-  drop(DropReason::kNoPose, why);
-  return false;
+  last_clock_ = now;
+  return clock_epoch_;
 }
 
-void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info)
+void KinectPipelineRos::restart(const std::string& why)
 {
-  // A perception node must not stop serving because of one frame: nothing may leave this callback.
+  if (!why.empty())
+  {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stamp_resets_;
+    }
+    input_freq_.clear();
+    ROS_WARN("%s: %s: starting over (confidence, rate window, learned floor correction, last pose)", name_.c_str(),
+             why.c_str());
+  }
+  pipeline_.reset();
+  last_stamp_ = ros::Time();
+  last_good_.reset();
+  static_warned_ = false;
+}
+
+template <typename F>
+void KinectPipelineRos::guarded(F&& work)
+{
+  // A perception node must not stop serving because of one frame: nothing may leave a callback.
   try
   {
-    processImage(image, info);
+    work();
   }
   catch (const std::exception& e)
   {
@@ -309,66 +308,132 @@ void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const s
   }
 }
 
-void KinectPipelineRos::processImage(const sensor_msgs::ImageConstPtr& image,
+void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info)
+{
+  guarded([&] { arrive(Input{image->header, info, image, nullptr}); });
+}
+
+void KinectPipelineRos::compressedCb(const sensor_msgs::CompressedImageConstPtr& image,
                                      const sensor_msgs::CameraInfoConstPtr& info)
 {
-  const auto t0 = std::chrono::steady_clock::now();
+  guarded([&] { arrive(Input{image->header, info, nullptr, image}); });
+}
+
+void KinectPipelineRos::arrive(const Input& in)
+{
   ++frames_in_;
   input_freq_.tick();
   exchange_.take(active_);  // settings change between frames only, and whole
   if (!active_)
     return;
-  const NodeSettings& s = *active_;
-
-  // The clock jumped back (a bag played again with use_sim_time, a simulation restarted): start over, as
-  // tf2_ros's listener does with its buffer.
-  const ros::Time now = ros::Time::now();
-  if (!last_clock_.isZero() && now < last_clock_)
+  const std::uint64_t epoch = checkClock();
+  if (epoch != clock_epoch_seen_)
   {
+    // ROS time jumped back (warned by checkClock()): the stamps start over with it, as tf2's buffer does.
+    // A frame held as older than the last one may be the new timeline's first, seen before its clock.
+    clock_epoch_seen_ = epoch;
+    std::optional<Input> held;
+    held.swap(pending_);
+    restart("");
+    if (held && held->header.stamp < in.header.stamp)
+      process(*held);
+    else if (held)
     {
-      std::lock_guard<std::mutex> lock(stats_mutex_);
-      ++clock_resets_;
+      pending_ = std::move(held);
+      dropPending();
     }
-    ROS_WARN("%s: ROS time moved backwards (%.3f -> %.3f s): forgetting the last stamp, pose and confidence history",
-             name_.c_str(), last_clock_.toSec(), now.toSec());
-    last_stamp_ = ros::Time();
-    last_pose_valid_ = false;
-    pipeline_.reset();
   }
-  last_clock_ = now;
-
-  if (image->header.stamp.isZero())
+  if (in.header.stamp.isZero())
   {
-    return drop(DropReason::kZeroStamp, "image stamp is 0 (frame_id '" + image->header.frame_id +
+    return drop(DropReason::kZeroStamp, "image stamp is 0 (frame_id '" + in.header.frame_id +
                                             "'): the driver did not stamp it, so neither its pose nor the scan's "
                                             "time is known; expected the capture time");
   }
-  if (!last_stamp_.isZero() && image->header.stamp <= last_stamp_)
+  if (inOrder(in))
+    process(in);
+}
+
+bool KinectPipelineRos::inOrder(const Input& in)
+{
+  const ros::Time stamp = in.header.stamp;
+  if (pending_)
   {
-    std::ostringstream m;
-    m.precision(9);
-    m << std::fixed << "stamp " << image->header.stamp.toSec() << " is not newer than the previous frame's "
-      << last_stamp_.toSec() << " (expected increasing stamps)";
-    return drop(DropReason::kStamp, m.str());
+    if (stamp <= last_stamp_ && stamp > pending_->header.stamp)
+    {
+      // Two frames in order, both older than the last one: the stamps jumped back (a bag played in a loop with
+      // wall time, a camera restarted). The held frame is the first of the new timeline.
+      const Input first = *pending_;
+      pending_.reset();
+      restart("the image stamps jumped back from " + seconds(last_stamp_) + " to " + seconds(first.header.stamp) +
+              " s (a bag played again or in a loop, a driver restarted)");
+      process(first);
+      return last_stamp_.isZero() || stamp > last_stamp_;
+    }
+    dropPending();  // a stray late frame, or this one is older still
   }
-  Camera cam;
-  cv::Mat depth;
+  if (last_stamp_.isZero() || stamp > last_stamp_)
+    return true;
+  pending_ = in;
+  pending_previous_ = last_stamp_;
+  return false;
+}
+
+void KinectPipelineRos::dropPending()
+{
+  std::ostringstream m;
+  m << "stamp " << seconds(pending_->header.stamp) << " is not newer than the previous frame's "
+    << seconds(pending_previous_) << " (expected increasing stamps)";
+  pending_.reset();
+  drop(DropReason::kStamp, m.str());
+}
+
+bool KinectPipelineRos::depthOf(const Input& in, const Camera& cam, cv::Mat& depth, std::string& encoding)
+{
+  if (in.image)
+  {
+    try
+    {
+      depth = conversions::depthFromImage(*in.image, swap_buffer_);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      drop(conversions::isSupportedEncoding(in.image->encoding) ? DropReason::kImage : DropReason::kEncoding,
+           e.what());
+      return false;
+    }
+    encoding = in.image->encoding;
+    return true;
+  }
   try
   {
-    cam = conversions::cameraFromInfo(*info);
+    depth = decodeCompressedDepth(in.compressed->format, in.compressed->data, cv::Size(cam.width, cam.height));
+  }
+  catch (const std::invalid_argument& e)
+  {
+    drop(DropReason::kCompressed, e.what());
+    return false;
+  }
+  encoding = depth.type() == CV_16UC1 ? "16UC1" : "32FC1";
+  return true;
+}
+
+void KinectPipelineRos::process(const Input& in)
+{
+  const auto t0 = Clock::now();
+  const NodeSettings& s = *active_;
+  Camera cam;
+  try
+  {
+    cam = conversions::cameraFromInfo(*in.info);
   }
   catch (const std::invalid_argument& e)
   {
     return drop(DropReason::kCameraInfo, e.what());
   }
-  try
-  {
-    depth = conversions::depthFromImage(*image, swap_buffer_);
-  }
-  catch (const std::invalid_argument& e)
-  {
-    return drop(conversions::isSupportedEncoding(image->encoding) ? DropReason::kImage : DropReason::kEncoding, e.what());
-  }
+  cv::Mat depth;
+  std::string encoding;
+  if (!depthOf(in, cam, depth, encoding))
+    return;
   if (depth.cols != cam.width || depth.rows != cam.height)
   {
     std::ostringstream m;
@@ -377,17 +442,15 @@ void KinectPipelineRos::processImage(const sensor_msgs::ImageConstPtr& image,
     return drop(DropReason::kSize, m.str());
   }
 
-  SensorPose pose;
-  double yaw;
-  bool have_position;
-  geometry_msgs::Vector3 position;
-  if (!poseFor(s, image->header, pose, yaw, have_position, position))
+  FramePose pose;
+  tf_wait_ms_ = 0.0;
+  if (!poseFor(s, in.header, pose))
     return;
-
   try
   {
     // Re-configured only when the settings object or the camera changed (a camera may change its resolution).
-    pipeline_.process(std::shared_ptr<const Config>(active_, &active_->core), cam, depth, pose, result_);
+    pipeline_.process(std::shared_ptr<const Config>(active_, &active_->core), cam, depth, pose.pose, result_,
+                      in.header.stamp.toSec());
   }
   catch (const std::invalid_argument& e)
   {
@@ -404,90 +467,57 @@ void KinectPipelineRos::processImage(const sensor_msgs::ImageConstPtr& image,
              cam.cx, cam.cy);
     camera_ = cam;
   }
+  publish(s, in, encoding);
+  broadcastScanFrame(s, in.header, pose);
+  ++frames_out_;
+  record(pose.pose, msSince(t0));
+}
 
-  const double scan_time = last_stamp_.isZero() ? 0.0 : (image->header.stamp - last_stamp_).toSec();
-  last_stamp_ = image->header.stamp;
+void KinectPipelineRos::publish(const NodeSettings& s, const Input& in, const std::string& encoding)
+{
+  const std_msgs::Header& header = in.header;
+  const double scan_time = last_stamp_.isZero() ? 0.0 : (header.stamp - last_stamp_).toSec();
+  last_stamp_ = header.stamp;
   auto scan = boost::make_shared<sensor_msgs::LaserScan>();
-  conversions::toLaserScan(result_.scan, image->header, s.scan_frame, scan_time, *scan);
+  conversions::toLaserScan(result_.scan, header, s.scan_frame, scan_time, *scan);
   scan_pub_.publish(scan);
   if (!result_.cliff.ranges.empty())
   {
     auto cliff = boost::make_shared<sensor_msgs::LaserScan>();
-    conversions::toLaserScan(result_.cliff, image->header, s.scan_frame, scan_time, *cliff);
+    conversions::toLaserScan(result_.cliff, header, s.scan_frame, scan_time, *cliff);
     cliff_pub_.publish(cliff);
   }
   if (depth_pub_.getNumSubscribers() > 0)
   {
     auto out = boost::make_shared<sensor_msgs::Image>();
-    conversions::toImage(result_.depth, image->header, image->encoding, *out);
+    conversions::toImage(result_.depth, header, encoding, *out);
     depth_pub_.publish(out);
   }
   if (debug_pub_.getNumSubscribers() > 0)
   {
     auto out = boost::make_shared<sensor_msgs::Image>();
-    conversions::toDebugImage(result_.depth, result_.labels, s.core.max_depth, image->header, *out);
+    conversions::toDebugImage(result_.depth, result_.labels, s.core.max_depth, header, *out);
     debug_pub_.publish(out);
-  }
-  if (have_position)
-  {
-    geometry_msgs::TransformStamped t;
-    t.header.stamp = image->header.stamp;
-    t.header.frame_id = s.base_frame;
-    t.child_frame_id = s.scan_frame;
-    t.transform.translation = position;
-    tf2::Quaternion q;
-    q.setRPY(0.0, 0.0, yaw);
-    t.transform.rotation.x = q.x();
-    t.transform.rotation.y = q.y();
-    t.transform.rotation.z = q.z();
-    t.transform.rotation.w = q.w();
-    tf_broadcaster_.sendTransform(t);
-  }
-  ++frames_out_;
-  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    last_ms_ = ms;
-    max_ms_ = std::max(max_ms_, ms);
-    sum_ms_ += ms;
-    for (int k = 0; k < kNumLabels; ++k)
-      label_totals_[k] += result_.counts[k];
   }
 }
 
-void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat)
+void KinectPipelineRos::record(const SensorPose& prior, double ms)
 {
+  // The processing time leaves out the wait for tf, which is reported on its own.
+  const double work = std::max(0.0, ms - tf_wait_ms_);
   std::lock_guard<std::mutex> lock(stats_mutex_);
-  std::uint64_t dropped = 0;
-  for (auto d : drops_)
-    dropped += d;
-  const std::uint64_t out = frames_out_;
-  if (out == 0 && dropped == 0)
-    stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame yet");
-  else if (dropped > 0 && !last_problem_.empty())
-    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu frame(s) dropped; last: %s",
-                  static_cast<unsigned long long>(dropped), last_problem_.c_str());
-  else
-    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "processing");
-  stat.add("frames in", static_cast<unsigned long long>(frames_in_.load()));
-  stat.add("frames out", static_cast<unsigned long long>(out));
-  for (int i = 0; i < static_cast<int>(DropReason::kCount); ++i)
-    stat.add(std::string("dropped: ") + toString(static_cast<DropReason>(i)), static_cast<unsigned long long>(drops_[i]));
-  stat.add("pose fallbacks", static_cast<unsigned long long>(pose_fallbacks_));
-  stat.add("parameters refused", static_cast<unsigned long long>(params_refused_));
-  stat.add("clock jumps back", static_cast<unsigned long long>(clock_resets_));
-  stat.add("camera model changes", static_cast<unsigned long long>(camera_changes_));
-  stat.add("master reconnections", static_cast<unsigned long long>(master_ ? master_->reconnections() : 0));
-  stat.add("master registration failures", static_cast<unsigned long long>(master_ ? master_->failures() : 0));
-  stat.add("processing time last [ms]", last_ms_);
-  stat.add("processing time max [ms]", max_ms_);
-  stat.add("processing time mean [ms]", out ? sum_ms_ / out : 0.0);
-  std::uint64_t total = 0;
-  for (auto n : label_totals_)
-    total += n;
-  const char* names[kNumLabels] = {"kept", "invalid", "floor", "above ceiling", "below floor"};
+  last_ms_ = work;
+  max_ms_ = std::max(max_ms_, work);
+  sum_ms_ += work;
+  last_wait_ms_ = tf_wait_ms_;
+  max_wait_ms_ = std::max(max_wait_ms_, tf_wait_ms_);
   for (int k = 0; k < kNumLabels; ++k)
-    stat.add(std::string("fraction ") + names[k], total ? static_cast<double>(label_totals_[k]) / total : 0.0);
+    label_totals_[k] += result_.counts[k];
+  last_fit_ = result_.floor_fit;
+  ++floor_counts_[static_cast<int>(last_fit_.status)];
+  last_prior_ = prior;
+  last_used_ = result_.pose;
+  refine_on_ = active_->core.refine_floor;
 }
 
 }  // namespace kinect_pipeline

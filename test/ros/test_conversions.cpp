@@ -232,3 +232,30 @@ TEST(Settings, DefaultsAreTheCoresDefaults)
   EXPECT_EQ(s.core.geometry, d.geometry);
   EXPECT_EQ(s.core.projection, d.projection);
 }
+
+TEST(Settings, EveryProblemIsNamedAtOnceAsAParameter)
+{
+  KinectPipelineConfig c = KinectPipelineConfig::__getDefault__();
+  c.ceiling_height = 0.5;
+  c.range_max = 4.0;  // fine: not named
+  c.open_kernel_size = 4;
+  c.pose_source = "laser";
+  c.geometry = "curved";
+  const std::string m = message([&] { settingsFromConfig(c); });
+  for (const char* w : {"~ceiling_height = 0.5", "~open_kernel_size = 4", "~pose_source = 'laser'",
+                        "~geometry = 'curved'"})
+    EXPECT_NE(m.find(w), std::string::npos) << "'" << w << "' not in: " << m;
+  EXPECT_EQ(m.find("range_max"), std::string::npos) << m;
+  EXPECT_EQ(m.find("Config."), std::string::npos) << m;
+}
+
+TEST(Settings, ClosestParameterOfOurs)
+{
+  // Peers' names by meaning, the rest by spelling.
+  EXPECT_EQ(closestParameter("output_frame_id"), "scan_frame");  // depthimage_to_laserscan
+  EXPECT_EQ(closestParameter("target_frame"), "scan_frame");     // pointcloud_to_laserscan
+  EXPECT_EQ(closestParameter("sensor_mount_height"), "sensor_height");  // laserscan_kinect
+  EXPECT_EQ(closestParameter("range_maximum"), "range_max");
+  EXPECT_EQ(closestParameter("sensor_pich"), "sensor_pitch");
+  EXPECT_EQ(closestParameter("refine_flor"), "refine_floor");
+}

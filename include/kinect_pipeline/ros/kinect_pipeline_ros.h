@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include <boost/thread/recursive_mutex.hpp>
@@ -16,8 +17,11 @@
 #include <diagnostic_updater/publisher.h>
 #include <dynamic_reconfigure/server.h>
 #include <image_transport/image_transport.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/time_synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/Imu.h>
 #include <std_msgs/Float64.h>
@@ -28,35 +32,18 @@
 #include "kinect_pipeline/KinectPipelineConfig.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/ros/master_reconnect.h"
+#include "kinect_pipeline/ros/parameters.h"
 #include "kinect_pipeline/settings_exchange.h"
 
 namespace kinect_pipeline
 {
-
-/** Everything a frame needs from the parameters, swapped in whole between frames. */
-struct NodeSettings
-{
-  Config core;
-  std::string pose_source = "tf";  ///< tf | imu | pitch_topic | static
-  std::string base_frame = "base_footprint";
-  double base_frame_height = 0.0;
-  std::string scan_frame = "kinect2_scan";
-  double tf_timeout = 0.03;
-  std::string pose_fallback = "static";  ///< static | last | drop
-  double pose_max_age = 0.5;
-};
-
-/**
- * @brief Settings from a dynamic_reconfigure config: validated as a whole.
- * @throw std::invalid_argument naming the field(s) and value(s) for values or combinations the core refuses.
- */
-NodeSettings settingsFromConfig(const KinectPipelineConfig& c);
 
 /** Why a frame was dropped (counted and reported in diagnostics). */
 enum class DropReason : int
 {
   kEncoding = 0,
   kImage,
+  kCompressed,
   kCameraInfo,
   kSize,
   kNoPose,
@@ -68,17 +55,24 @@ enum class DropReason : int
 };
 const char* toString(DropReason r);
 
+/** @return the node's --help text: topics, the main parameters (from the .cfg), where the README is. */
+std::string usageText();
+
 /**
  * Subscribes a depth image + camera_info, runs the core at the pose of the image's stamp and publishes the
  * scan, the cleaned depth image and (when someone listens) a debug image of the labels.
  *
- * Topics (node namespace, remappable): in `image` (+ its `camera_info`), `imu`, `base_pitch`; out `scan`,
- * `image_processed`, `image_labels`, `/diagnostics`; tf: broadcasts base_frame -> scan_frame.
+ * Topics (node namespace, remappable): in `image` (+ its `camera_info`; `image/compressedDepth` with
+ * ~image_transport compressedDepth), `imu`, `base_pitch`; out `scan`, `cliff_scan`, `image_processed`,
+ * `image_labels`, `/diagnostics`; tf: base_frame -> scan_frame (pose_source tf), else the image's frame -> scan_frame.
  */
 class KinectPipelineRos
 {
 public:
-  /** @param name used in log messages */
+  /**
+   * @param name used in log messages
+   * @throw StartupError for parameters it cannot honour or an input transport it cannot load, naming them all
+   */
   KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, const std::string& name);
   ~KinectPipelineRos();
 
@@ -86,24 +80,78 @@ public:
   std::uint64_t framesOut() const { return frames_out_; }
 
 private:
+  /** One input frame, raw or compressedDepth, kept whole while its fate is open (see inOrder()). */
+  struct Input
+  {
+    std_msgs::Header header;
+    sensor_msgs::CameraInfoConstPtr info;
+    sensor_msgs::ImageConstPtr image;                // raw transport
+    sensor_msgs::CompressedImageConstPtr compressed;  // compressedDepth
+  };
+  /** A pose for one frame and where it came from. */
+  struct FramePose
+  {
+    SensorPose pose{0.0, 0.0, 0.0};
+    double yaw = 0.0;                 ///< the sensor's heading in base_frame (tf)
+    bool have_position = false;       ///< position and yaw are known (tf, or the last tf pose)
+    geometry_msgs::Vector3 position;  ///< the sensor in base_frame (tf)
+  };
+  struct GoodPose
+  {
+    FramePose pose;
+    ros::Time stamp;
+    std::string frame_id;  ///< the image frame it is the pose of
+    bool from_tf = false;
+  };
+
+  std::string checkTransport();
+  void subscribe(const std::string& transport);
   void imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  void compressedCb(const sensor_msgs::CompressedImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
   void reconfigureCb(KinectPipelineConfig& config, uint32_t level);
   void imuCb(const sensor_msgs::ImuConstPtr& msg);
   void pitchCb(const std_msgs::Float64ConstPtr& msg);
+  void diagnoseRate(diagnostic_updater::DiagnosticStatusWrapper& stat);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
-  /** The frame's work; imageCb() wraps it so that no exception ever leaves a callback. */
-  void processImage(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  void diagnoseFloor(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /** Wraps a frame callback so that no exception ever leaves it. */
+  template <typename F>
+  void guarded(F&& work);
+  /** A frame arrives: settings, clock and stamp checks, then process() (now, later or never). */
+  void arrive(const Input& in);
+  /** The frame's work once its stamp is accepted. */
+  void process(const Input& in);
+  /** @return false when the frame must be dropped. */
+  bool depthOf(const Input& in, const Camera& cam, cv::Mat& depth, std::string& encoding);
+  /**
+   * @return true if the frame is to be processed now. A frame older than the last one is held: the next frame
+   *         tells whether it was a stray late frame (then dropped as out of order) or the first of a timeline that
+   *         jumped back (then the history restarts and it is processed).
+   */
+  bool inOrder(const Input& in);
+  void dropPending();
+  /** The history starts over (a jump back of the stamps or the clock): one warning when @p why is not empty. */
+  void restart(const std::string& why);
+  /** Follows ROS time (frame callback and diagnostics timer): @return the number of jumps back so far. */
+  std::uint64_t checkClock();
   /** After a master restart: the parameters in force back onto the (new) parameter server. */
   void republishParameters();
   void drop(DropReason reason, const std::string& message);
-  /** @return false when the frame must be dropped; @p why says what happened otherwise (fallbacks). */
-  bool poseFor(const NodeSettings& s, const std_msgs::Header& header, SensorPose& pose, double& yaw,
-               bool& have_position, geometry_msgs::Vector3& position);
+  /** @return false when the frame must be dropped. */
+  bool poseFor(const NodeSettings& s, const std_msgs::Header& header, FramePose& pose);
+  bool fallback(const NodeSettings& s, const std_msgs::Header& header, const std::string& why, FramePose& pose);
+  void warnIfStaticDisagrees(const NodeSettings& s, const SensorPose& fixed);
+  void broadcastScanFrame(const NodeSettings& s, const std_msgs::Header& header, const FramePose& pose);
+  void publish(const NodeSettings& s, const Input& in, const std::string& encoding);
+  void record(const SensorPose& prior, double ms);
 
   ros::NodeHandle nh_, pnh_;
   std::string name_;
   image_transport::ImageTransport it_;
   image_transport::CameraSubscriber sub_;
+  message_filters::Subscriber<sensor_msgs::CompressedImage> compressed_sub_;
+  message_filters::Subscriber<sensor_msgs::CameraInfo> info_sub_;
+  std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::CompressedImage, sensor_msgs::CameraInfo>> sync_;
   image_transport::Publisher depth_pub_, debug_pub_;
   ros::Publisher scan_pub_, cliff_pub_;
   ros::Subscriber imu_sub_, pitch_sub_;
@@ -136,24 +184,39 @@ private:
   FrameResult result_;
   cv::Mat swap_buffer_;
   Camera camera_;
-  bool last_pose_valid_ = false;
-  SensorPose last_pose_{};
-  double last_yaw_ = 0.0;
-  ros::Time last_pose_stamp_, last_stamp_, last_clock_;
+  std::optional<GoodPose> last_good_;
+  bool static_warned_ = false;       // the static pose's disagreement with tf was said in this fallback
+  bool scan_frame_warned_ = false;   // that scan_frame cannot be broadcast was said
+  ros::Time last_stamp_;
+  std::optional<Input> pending_;     // a frame older than the last one, until the next frame tells what it was
+  ros::Time pending_previous_;       // last_stamp_ when it came
+  std::uint64_t clock_epoch_seen_ = 0;
+  double tf_wait_ms_ = 0.0;
+
+  std::mutex clock_mutex_;  // guards the three below
+  ros::Time last_clock_;
+  std::uint64_t clock_epoch_ = 0;
+  bool clock_seen_ = false;
 
   diagnostic_updater::Updater diagnostics_;
-  ros::WallTimer diagnostics_timer_;  // diagnostics keep coming when every frame is dropped
+  ros::WallTimer diagnostics_timer_;  // diagnostics keep coming when every frame is dropped, whatever ROS time does
   double min_freq_ = 1.0, max_freq_ = 60.0;
   diagnostic_updater::FrequencyStatus input_freq_;
   std::mutex stats_mutex_;
   std::atomic<std::uint64_t> frames_in_{0}, frames_out_{0};
   std::array<std::uint64_t, static_cast<int>(DropReason::kCount)> drops_{};
   std::array<ros::WallTime, static_cast<int>(DropReason::kCount)> last_drop_log_{};
-  std::uint64_t pose_fallbacks_ = 0;
-  std::uint64_t params_refused_ = 0, clock_resets_ = 0, camera_changes_ = 0;
+  std::uint64_t pose_fallbacks_ = 0, fallbacks_last_ = 0, fallbacks_static_ = 0, static_disagreements_ = 0;
+  std::uint64_t params_refused_ = 0, clock_resets_ = 0, stamp_resets_ = 0, camera_changes_ = 0;
   std::string last_problem_;
-  double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0;
+  double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0, last_wait_ms_ = 0.0, max_wait_ms_ = 0.0;
   std::array<std::uint64_t, kNumLabels> label_totals_{};
+  // The floor refinement, as of the last frame.
+  std::array<std::uint64_t, kNumFloorFitStatus> floor_counts_{};
+  FloorFitResult last_fit_;
+  SensorPose last_prior_{0.0, 0.0, 0.0}, last_used_{0.0, 0.0, 0.0};
+  bool refine_on_ = true;
+  std::optional<SensorPose> static_minus_tf_;  // the static pose minus the last tf pose
 
   std::unique_ptr<MasterReconnect> master_;  // last: its timer calls into the members above
 };
