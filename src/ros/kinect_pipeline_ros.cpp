@@ -71,7 +71,7 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   , name_(name)
   , it_(nh)
   , tf_listener_(tf_buffer_)
-  , diagnostics_(nh, pnh)
+  , diagnostics_(nh, pnh, name)  // a nodelet's statuses carry its own name, not its manager's
   , input_freq_(diagnostic_updater::FrequencyStatusParam(&min_freq_, &max_freq_, 0.1, 10))
 {
   // First what may stop the node, before anything runs: every bad parameter at once, and the transport.
@@ -263,7 +263,7 @@ std::uint64_t KinectPipelineRos::checkClock()
       ++clock_resets_;
     }
     input_freq_.clear();
-    ROS_WARN("%s: ROS time jumped back from %.3f to %.3f s (a bag played again with --clock, a simulation "
+    ROS_WARN("%s: ROS time moved backwards, from %.3f to %.3f s (a bag played again with --clock, a simulation "
              "restarted): starting over (stamps, pose, confidence, rate window, learned floor correction)",
              name_.c_str(), last_clock_.toSec(), now.toSec());
     clock_seen_ = !now.isZero();

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <thread>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/LinearMath/Quaternion.h>
@@ -31,11 +32,15 @@ bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& h
   std::string why;
   if (s.pose_source == "tf")
   {
+    // The wait is on the wall clock: tf2's own timeout counts ROS time, which stands still while a bag is paused
+    // or has ended (use_sim_time), and would block this callback, and the node's queue, until the clock moves.
     const auto t0 = Clock::now();
+    const auto deadline = t0 + std::chrono::duration<double>(s.tf_timeout);
+    while (!tf_buffer_.canTransform(s.base_frame, header.frame_id, header.stamp) && Clock::now() < deadline && ros::ok())
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
     try
     {
-      const geometry_msgs::TransformStamped t =
-          tf_buffer_.lookupTransform(s.base_frame, header.frame_id, header.stamp, ros::Duration(s.tf_timeout));
+      const geometry_msgs::TransformStamped t = tf_buffer_.lookupTransform(s.base_frame, header.frame_id, header.stamp);
       pose.pose = conversions::poseFromOpticalTransform(t.transform, s.base_frame_height, pose.yaw);
       pose.position = t.transform.translation;
       pose.have_position = true;

@@ -9,8 +9,6 @@ process group); deadlines, no fixed sleeps."""
 from __future__ import annotations
 
 import os
-import signal
-import socket
 import subprocess
 import sys
 import time
@@ -18,45 +16,13 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from ros_graph import NODE, ROOT, Processes, free_port
 
-ROOT = Path(__file__).resolve().parents[2]
-NODE = ROOT / "build" / "devel" / "lib" / "kinect_pipeline" / "kinect_pipeline_node"
 HELPER = ROOT / "test" / "ros" / "restart_helper.py"
 REMAPS = ["image:=/cam/image_depth", "_pose_source:=static"]
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class Processes:
-    """Processes started in their own process group, stopped by that PID: SIGINT, then SIGKILL at a deadline."""
-
-    def __init__(self, env: dict[str, str], logdir: Path) -> None:
-        self.env, self.logdir = env, logdir
-        self.procs: list[subprocess.Popen[bytes]] = []
-
-    def start(self, name: str, *cmd: str) -> subprocess.Popen[bytes]:
-        with open(self.logdir / f"{name}.log", "ab") as log:  # the child keeps its own descriptor
-            p = subprocess.Popen(cmd, env=self.env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        self.procs.append(p)
-        return p
-
-    def stop(self, p: subprocess.Popen[bytes]) -> None:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGINT)
-            try:
-                p.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait(timeout=15)
-
-    def stop_all(self) -> None:
-        for p in reversed(self.procs):
-            self.stop(p)
-
+class Client(Processes):
     def helper(self, name: str, *args: str) -> str:
         """Runs the client once; its exit status says whether the node served it."""
         out = subprocess.run(
@@ -66,12 +32,9 @@ class Processes:
         assert out.returncode == 0, f"{name}: the node did not serve a new client:\n{out.stdout}{out.stderr[-3000:]}"
         return out.stdout
 
-    def log(self, name: str) -> str:
-        return (self.logdir / f"{name}.log").read_text(errors="replace")
-
 
 @pytest.fixture
-def procs(tmp_path: Path) -> Iterator[Processes]:
+def procs(tmp_path: Path) -> Iterator[Client]:
     if not NODE.exists():
         pytest.skip("no build: run scripts/quickstart.sh first")
     port = free_port()
@@ -80,13 +43,13 @@ def procs(tmp_path: Path) -> Iterator[Processes]:
         ROS_MASTER_URI=f"http://127.0.0.1:{port}", ROS_IP="127.0.0.1", ROS_HOME=str(tmp_path / "ros"), PORT=str(port)
     )
     env.pop("ROS_HOSTNAME", None)
-    p = Processes(env, tmp_path)
+    p = Client(env, tmp_path)
     yield p
     p.stop_all()
 
 
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
-def test_serves_again_after_the_master_restarts(procs: Processes, kind: str) -> None:
+def test_serves_again_after_the_master_restarts(procs: Client, kind: str) -> None:
     port = procs.env["PORT"]
     core = procs.start("roscore1", "roscore", "-p", port)
     if kind == "node":
@@ -106,7 +69,7 @@ def test_serves_again_after_the_master_restarts(procs: Processes, kind: str) -> 
     assert "registered this process's topics and services again" in procs.log(name)
 
 
-def test_clock_jumping_back_starts_over(procs: Processes) -> None:
+def test_clock_jumping_back_starts_over(procs: Client) -> None:
     procs.start("roscore", "roscore", "-p", procs.env["PORT"])
     deadline = time.monotonic() + 60
     while subprocess.run(["rosparam", "set", "/use_sim_time", "true"], env=procs.env, capture_output=True).returncode:

@@ -183,7 +183,7 @@ class NodeTest(unittest.TestCase):
         return next(s for s in self.scans if s.header.stamp > t)
 
     def expected(self, pitch: float, cam: kp.Camera = CAM, depth: np.ndarray | None = None, **cfg: object) -> kp.Result:
-        pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=pitch, **cfg))
+        pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=pitch, refine_floor=False, **cfg))
         return pipe.process(self.feeder.depth if depth is None else depth)
 
     def counter(self, key: str, after: rospy.Time | None = None) -> int:
