@@ -61,13 +61,16 @@ build() {
   install_prefix="/tmp/kinect_pipeline_install-$(printf '%s' "$ROOT" | sha1sum | cut -c1-8)"
   if [ ! -f build/cmake/Makefile ] || ! grep -q "^CMAKE_INSTALL_PREFIX:PATH=$install_prefix\$" build/cmake/CMakeCache.txt; then
     rm -rf build/install
-    cmake -S . -B build/cmake -DCMAKE_BUILD_TYPE=Release -DCATKIN_DEVEL_PREFIX="$ROOT/build/devel" \
+    env -u CMAKE_PREFIX_PATH cmake -S . -B build/cmake -DCMAKE_BUILD_TYPE=Release -DCATKIN_DEVEL_PREFIX="$ROOT/build/devel" \
       -DCMAKE_INSTALL_PREFIX="$install_prefix" -DPYTHON_EXECUTABLE=/usr/bin/python3 \
       -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_ENABLE_TESTING=ON >build/cmake.log 2>&1 ||
       { mkdir -p build; cat build/cmake.log; exit 1; }
   fi
-  cmake --build build/cmake -j"$(nproc)" -- --no-print-directory 2>&1 | grep -E "error|warning|Error" || true
-  cmake --build build/cmake -j"$(nproc)" >/dev/null
+  # Without a sourced devel space in CMAKE_PREFIX_PATH (a shell that ran env.sh): a re-configure would chain the
+  # install space onto it.
+  env -u CMAKE_PREFIX_PATH cmake --build build/cmake -j"$(nproc)" -- --no-print-directory 2>&1 |
+    grep -E "error|warning|Error" || true
+  env -u CMAKE_PREFIX_PATH cmake --build build/cmake -j"$(nproc)" >/dev/null
 }
 
 mkdir -p build

@@ -13,7 +13,9 @@ trap 'rm -rf "$ROS_HOME"' EXIT
 
 echo "== C++ tests (catkin run_tests) =="
 rm -rf build/cmake/test_results
-cmake --build build/cmake --target tests -j"$(nproc)" >/dev/null
+# A re-configure (CMakeLists.txt changed) must not see the sourced devel space in CMAKE_PREFIX_PATH: catkin would
+# chain the install space onto it (test/python/test_install_space.py checks that it does not).
+env -u CMAKE_PREFIX_PATH cmake --build build/cmake --target tests -j"$(nproc)" >/dev/null
 # 'make run_tests' exits 0 even when tests fail: catkin_test_results decides.
 cmake --build build/cmake --target run_tests -- --no-print-directory >build/run_tests.log 2>&1 || true
 grep -E "^\[  (PASSED|FAILED) \]|^\[==========\]|Failure" build/run_tests.log || true

@@ -72,3 +72,14 @@ def test_package_launch_files_and_nodelet_are_found(install_env: dict[str, str])
     assert f"kinect_pipeline {share}/nodelet_plugins.xml" in plugins
     assert (INSTALL / "lib" / "libkinect_pipeline_nodelet.so").exists()
     assert (INSTALL / "lib" / "kinect_pipeline" / "kinect_pipeline_node").exists()
+
+
+def test_node_help_loader_and_readme_come_from_the_install_space(install_env: dict[str, str]) -> None:
+    share = INSTALL / "share" / "kinect_pipeline"
+    assert (share / "README.md").exists()
+    out = run(install_env, "rosrun", "kinect_pipeline", "kinect_pipeline_node", "--help")
+    assert "usage:" in out and f"{share}/README.md" in out, out
+    # The launch file's nodelet loader is installed beside the node, and runs from there.
+    loader = INSTALL / "lib" / "kinect_pipeline" / "load_into_manager"
+    assert loader.exists()
+    assert "usage: load_into_manager" in run(install_env, str(loader), "--help")
