@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
-import socket
 import subprocess
 import sys
 import time
@@ -14,15 +12,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from kinect_pipeline.bench_ros import _free_port as free_port
+from kinect_pipeline.bench_ros import _stop
+
 ROOT = Path(__file__).resolve().parents[2]
 NODE = ROOT / "build" / "devel" / "lib" / "kinect_pipeline" / "kinect_pipeline_node"
 FEEDER = ROOT / "test" / "ros" / "feeder.py"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def wait_for(what: str, cond: Callable[[], Any], timeout: float = 60.0, poll: float = 0.05) -> Any:
@@ -51,13 +46,7 @@ class Processes:
         return p
 
     def stop(self, p: subprocess.Popen[bytes]) -> None:
-        if p.poll() is None:
-            os.killpg(p.pid, signal.SIGINT)
-            try:
-                p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                os.killpg(p.pid, signal.SIGKILL)
-                p.wait(timeout=15)
+        _stop(p)
 
     def stop_all(self) -> None:
         for p in reversed(self.procs):

@@ -93,6 +93,14 @@ def start_manager(ros: RosGraph, name: str, ns: str | None = None) -> None:
     wait_for(f"manager {full}", lambda: _has_service(ros, full + "/load_nodelet"), timeout=60)
 
 
+def manager_args(ros: RosGraph, kind: str) -> list[str]:
+    """The launch arguments for the standalone node, or for the nodelet in a manager started here."""
+    if kind == "node":
+        return []
+    start_manager(ros, "kinect2_manager")
+    return ["manager:=kinect2_manager"]
+
+
 def _has_service(ros: RosGraph, service: str) -> bool:
     try:
         ros.master().lookupService(service)
@@ -194,10 +202,7 @@ def test_missing_manager_is_a_clear_error_within_the_deadline(ros: RosGraph) -> 
 def test_compressed_depth_is_decoded_and_bad_payloads_are_dropped(
     ros: RosGraph, tmp_path: Path, kind: str, encoding: str, codec: str
 ) -> None:
-    manager = []
-    if kind == "nodelet":
-        start_manager(ros, "kinect2_manager")
-        manager = ["manager:=kinect2_manager"]
+    manager = manager_args(ros, kind)
     params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
     ros.launch(
         "launch",
@@ -236,10 +241,7 @@ def test_compressed_depth_is_decoded_and_bad_payloads_are_dropped(
 
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_a_transport_that_cannot_be_loaded_is_one_clear_error(ros: RosGraph, kind: str) -> None:
-    manager = []
-    if kind == "nodelet":
-        start_manager(ros, "kinect2_manager")
-        manager = ["manager:=kinect2_manager"]
+    manager = manager_args(ros, kind)
     ros.launch("launch", "kinect_pipeline.launch", "image_transport:=theora", *manager)
     said = wait_for("the transport error", lambda: lines(ros.log("launch"), "~image_transport = 'theora'"))
     for word in ("no image_transport plugin", "can load: raw", "compressedDepth"):
@@ -251,10 +253,7 @@ def test_a_transport_that_cannot_be_loaded_is_one_clear_error(ros: RosGraph, kin
 # ------------------------------------------------------------------------------------------------------------ item 3
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_invalid_startup_parameters_stop_the_node_naming_every_one(ros: RosGraph, tmp_path: Path, kind: str) -> None:
-    manager = []
-    if kind == "nodelet":
-        start_manager(ros, "kinect2_manager")
-        manager = ["manager:=kinect2_manager"]
+    manager = manager_args(ros, kind)
     params = yaml_file(
         tmp_path / "bad.yaml",
         ceiling_height=0.5,
@@ -287,10 +286,7 @@ def _has_topic(ros: RosGraph, topic: str) -> bool:
 
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_unknown_parameters_are_warned_once_naming_ours(ros: RosGraph, tmp_path: Path, kind: str) -> None:
-    manager = []
-    if kind == "nodelet":
-        start_manager(ros, "kinect2_manager")
-        manager = ["manager:=kinect2_manager"]
+    manager = manager_args(ros, kind)
     params = yaml_file(tmp_path / "p.yaml", range_max=4.0, output_frame_id="laser", sensor_pich=0.3)
     ros.launch("launch", "kinect_pipeline.launch", "pose_source:=static", f"params:={params}", *manager)
     res = ros.feed("feed", "--noise-free", "--until", "len(scans) >= 3")
@@ -516,10 +512,7 @@ def test_replay_launch_records_the_inputs_and_both_scans(ros: RosGraph, tmp_path
 def test_floor_refinement_learns_a_wrong_static_pose_and_serves_whatever_it_does(ros: RosGraph, kind: str) -> None:
     # Frames rendered at the true pose; the node is told a pose 3 cm too high and looking 1 deg less down.
     dh, dp = 0.03, math.radians(-1.0)
-    manager = []
-    if kind == "nodelet":
-        start_manager(ros, "kinect2_manager")
-        manager = ["manager:=kinect2_manager"]
+    manager = manager_args(ros, kind)
     ros.launch(
         "launch",
         "kinect_pipeline.launch",
