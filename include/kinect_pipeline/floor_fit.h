@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -93,6 +94,17 @@ public:
   void reset();
   /** @return the learned correction now. */
   const PoseCorrection& learned() const { return learned_; }
+
+  /** What the fit carries from frame to frame: the learned correction and the last frame's stamp. */
+  struct State
+  {
+    PoseCorrection learned;
+    double last_stamp = std::numeric_limits<double>::quiet_NaN();  ///< [s]; NaN: no stamped frame yet
+  };
+  /** @return the state after the last frame (to continue elsewhere, e.g. a resumed replay). */
+  State state() const;
+  /** @brief Continues from a state(): the next frame is processed as it would have been after that frame. */
+  void restore(const State& s);
 
   /** A sampled pixel that can be floor, in the gravity-aligned frame at the sensor under the corrected prior. */
   struct Point

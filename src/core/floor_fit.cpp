@@ -420,6 +420,18 @@ SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Co
   return pose;
 }
 
+FloorFit::State FloorFit::state() const
+{
+  return {learned_, has_stamp_ ? last_stamp_ : std::numeric_limits<double>::quiet_NaN()};
+}
+
+void FloorFit::restore(const State& s)
+{
+  learned_ = s.learned;
+  has_stamp_ = std::isfinite(s.last_stamp);
+  last_stamp_ = has_stamp_ ? s.last_stamp : 0.0;
+}
+
 void FloorFit::reset()
 {
   learned_ = PoseCorrection{};

@@ -253,12 +253,18 @@ def evaluate_pose_errors(
     rendered = []
     for i in progress(range(frames), frames, "render") if show_progress else range(frames):
         t = i / RATE
-        rendered.append((t, render_frame(cam, scene, HEIGHT, TILT + segway_pitch(t), 0.0, encoding, seed + i, tof=True)))
+        rendered.append(
+            (t, render_frame(cam, scene, HEIGHT, TILT + segway_pitch(t), 0.0, encoding, seed + i, tof=True))
+        )
     rows: list[PoseRow] = []
     for cond, (dh, dp, dr, lag) in POSE_ERRORS.items():
         for method in POSE_METHODS:
-            cfg = _core.Config(sensor_height=HEIGHT + dh, sensor_pitch=TILT + dp, sensor_roll=dr,
-                               refine_floor=method == POSE_METHODS[0])
+            cfg = _core.Config(
+                sensor_height=HEIGHT + dh,
+                sensor_pitch=TILT + dp,
+                sensor_roll=dr,
+                refine_floor=method == POSE_METHODS[0],
+            )
             pipe = _core.Pipeline(cam, cfg)
             acc: dict[str, list[float]] = {}
             for t, f in rendered:
@@ -288,8 +294,16 @@ def _pose_row(cond: str, method: str, acc: dict[str, list[float]]) -> PoseRow:
         v = [x for x in acc.get(k, []) if not math.isnan(x)]
         return float(np.mean(v)) if v else float("nan")
 
-    return PoseRow(cond, method, mean("floor"), mean("kept"), mean("phantom"), mean("cliff"), mean("accepted"),
-                   float(np.median(acc["ms"])))
+    return PoseRow(
+        cond,
+        method,
+        mean("floor"),
+        mean("kept"),
+        mean("phantom"),
+        mean("cliff"),
+        mean("accepted"),
+        float(np.median(acc["ms"])),
+    )
 
 
 def pose_table(rows: list[PoseRow]) -> str:

@@ -471,6 +471,25 @@ PYBIND11_MODULE(_core, m)
           "learned_correction", [](PyPipeline& self) { return self.pipe.floorFit().learned(); },
           "The floor refinement's learned correction now (PoseCorrection).")
       .def_property(
+          "floor_state",
+          [](PyPipeline& self) {
+            const FloorFit::State s = self.pipe.floorFit().state();
+            return py::make_tuple(s.learned.height, s.learned.pitch, s.learned.roll,
+                                  std::isfinite(s.last_stamp) ? py::cast(s.last_stamp) : py::none());
+          },
+          [](PyPipeline& self, const py::tuple& t) {
+            if (t.size() != 4)
+              throw py::value_error("floor_state: expected (height, pitch, roll, last_stamp or None), got " +
+                                    std::string(py::repr(t)));
+            FloorFit::State s;
+            s.learned = {py::cast<double>(t[0]), py::cast<double>(t[1]), py::cast<double>(t[2])};
+            s.last_stamp = t[3].is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(t[3]);
+            std::lock_guard<std::mutex> lock(self.mutex);
+            self.pipe.restoreFloorFit(s);
+          },
+          "What the floor refinement carries between frames: (learned height [m], pitch, roll [rad], the last "
+          "frame's stamp [s] or None); set it to continue another run exactly (a resumed replay).")
+      .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
           [](PyPipeline& self, const Config& c) {
             std::lock_guard<std::mutex> lock(self.mutex);
