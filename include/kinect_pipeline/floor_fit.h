@@ -66,6 +66,9 @@ struct FloorFitResult
   int support = 0;     ///< of those, the pixels within t(d) of the fitted floor
   int pixels = 0;      ///< the image pixels the support stands for (support * row_step * col_step)
   double spread = 0.0; ///< RMS of the support's residuals in units of t(d) (pure noise: about 1/3)
+  /// the fit's largest move of the floor where it is seen, in units of t(d); an accepted fit below 0.1 is noise:
+  /// the frame keeps the prior (plus the learned correction)
+  double shift = 0.0;
   PoseCorrection fit;      ///< the fitted pose minus the prior (also when declined)
   PoseCorrection applied;  ///< the pose the frame was processed at minus the prior
   PoseCorrection learned;  ///< the slowly learned correction after this frame (applied to the next prior)

@@ -410,6 +410,8 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("pixels", &FloorFitResult::pixels,
                     "image pixels on the fitted floor (support * row_step * col_step), compared with floor_min_pixels")
       .def_readonly("spread", &FloorFitResult::spread, "RMS residual of the support in units of t(d)")
+      .def_readonly("shift", &FloorFitResult::shift,
+                    "the fit's largest move of the floor where seen, in t(d); below 0.1 the frame keeps the prior")
       .def_readonly("fit", &FloorFitResult::fit, "fitted pose minus the prior (also when declined)")
       .def_readonly("correction", &FloorFitResult::applied, "the frame's pose minus the prior")
       .def_readonly("learned", &FloorFitResult::learned, "the learned correction after this frame")
