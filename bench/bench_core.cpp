@@ -140,7 +140,7 @@ int main(int argc, char** argv)
   {
     std::string enc;
     int threads;
-    double memcpy_ms, total, prepare, erode, classify, confidence;
+    double memcpy_ms, total, prepare, floor_fit, erode, classify, confidence;
     double allocs;
   };
   std::vector<Row> rows;
@@ -163,7 +163,7 @@ int main(int argc, char** argv)
       // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
       for (int i = 0; i < 30; ++i)
         pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
-      std::vector<double> tm, tt, tp, te, tc, tf;
+      std::vector<double> tm, tt, tp, tff, te, tc, tf;
       long allocs = 0;
       for (int i = 0; i < frames; ++i)
       {
@@ -176,12 +176,13 @@ int main(int argc, char** argv)
         allocs += g_allocations.load() - before;
         tt.push_back(res.times.total);
         tp.push_back(res.times.prepare);
+        tff.push_back(res.times.floor_fit);
         te.push_back(res.times.erode);
         tc.push_back(res.times.classify_scan);
         tf.push_back(res.times.confidence);
       }
       rows.push_back({toString(type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32),
-                      threads, median(tm), median(tt), median(tp), median(te), median(tc), median(tf),
+                      threads, median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
                       static_cast<double>(allocs) / frames});
     }
   }
@@ -191,14 +192,14 @@ int main(int argc, char** argv)
               frames, kernel, kernel, projection.c_str(), surface_band);
   if (markdown)
   {
-    std::printf("| encoding | threads | memcpy [ms] | prepare | erode | classify+scan | confidence | frame [ms] | "
-                "frame / memcpy | speed-up vs 1 thread | allocations / frame |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("| encoding | threads | memcpy [ms] | prepare | (floor fit) | erode | classify+scan | confidence | "
+                "frame [ms] | frame / memcpy | floor fit / frame | speed-up vs 1 thread | allocations / frame |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   }
   else
   {
-    std::printf("%-6s %3s %9s %8s %8s %9s %8s %9s %8s %8s %7s\n", "enc", "thr", "memcpy", "prepare", "erode",
-                "classify", "conf", "frame", "x memcpy", "speedup", "allocs");
+    std::printf("%-6s %3s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "thr", "memcpy", "prepare",
+                "floor fit", "erode", "classify", "conf", "frame", "x memcpy", "fit/frame", "speedup", "allocs");
   }
   for (std::size_t i = 0; i < rows.size(); ++i)
   {
@@ -206,13 +207,15 @@ int main(int argc, char** argv)
     const double one = rows[i - i % thread_counts.size()].total;  // this encoding's first thread count
     const double speedup = one / r.total;
     if (markdown)
-      std::printf("| %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.2f | %.1f |\n", r.enc.c_str(), r.threads,
-                  r.memcpy_ms, r.prepare, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, speedup,
-                  r.allocs);
+      std::printf("| %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
+                  r.enc.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence,
+                  r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
     else
-      std::printf("%-6s %3d %9.4f %8.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.2f %7.1f\n", r.enc.c_str(), r.threads, r.memcpy_ms,
-                  r.prepare, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, speedup, r.allocs);
+      std::printf("%-6s %3d %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n", r.enc.c_str(),
+                  r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence, r.total,
+                  r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
   }
-  std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run)\n");
+  std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run; the floor fit is "
+              "part of prepare, and 'fit/frame' its share of the frame)\n");
   return 0;
 }

@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -65,6 +66,9 @@ struct FloorFitResult
   int support = 0;     ///< of those, the pixels within t(d) of the fitted floor
   int pixels = 0;      ///< the image pixels the support stands for (support * row_step * col_step)
   double spread = 0.0; ///< RMS of the support's residuals in units of t(d) (pure noise: about 1/3)
+  /// the fit's largest move of the floor where it is seen, in units of t(d); an accepted fit below 0.1 is noise:
+  /// the frame keeps the prior (plus the learned correction)
+  double shift = 0.0;
   PoseCorrection fit;      ///< the fitted pose minus the prior (also when declined)
   PoseCorrection applied;  ///< the pose the frame was processed at minus the prior
   PoseCorrection learned;  ///< the slowly learned correction after this frame (applied to the next prior)
@@ -93,6 +97,17 @@ public:
   void reset();
   /** @return the learned correction now. */
   const PoseCorrection& learned() const { return learned_; }
+
+  /** What the fit carries from frame to frame: the learned correction and the last frame's stamp. */
+  struct State
+  {
+    PoseCorrection learned;
+    double last_stamp = std::numeric_limits<double>::quiet_NaN();  ///< [s]; NaN: no stamped frame yet
+  };
+  /** @return the state after the last frame (to continue elsewhere, e.g. a resumed replay). */
+  State state() const;
+  /** @brief Continues from a state(): the next frame is processed as it would have been after that frame. */
+  void restore(const State& s);
 
   /** A sampled pixel that can be floor, in the gravity-aligned frame at the sensor under the corrected prior. */
   struct Point

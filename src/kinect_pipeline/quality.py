@@ -162,3 +162,149 @@ def _scan_geometry(cam: _core.Camera) -> tuple[float, float]:
 
 def table(rows: list[Row]) -> str:
     return HEADER + "\n" + "\n".join(r.markdown() for r in rows)
+
+
+# ---------------------------------------------------------------- pose errors (the floor refinement)
+
+DEG = math.radians(1.0)
+
+#: told pose minus true: name -> (height [m], pitch [rad], roll [rad], base pitch signal late by [s])
+POSE_ERRORS: dict[str, tuple[float, float, float, float]] = {
+    "exact": (0.0, 0.0, 0.0, 0.0),
+    "pitch +1°": (0.0, DEG, 0.0, 0.0),
+    "pitch −1°": (0.0, -DEG, 0.0, 0.0),
+    "roll +1°": (0.0, 0.0, DEG, 0.0),
+    "height +5 cm": (0.05, 0.0, 0.0, 0.0),
+    "height −5 cm": (-0.05, 0.0, 0.0, 0.0),
+    "+5 cm, +1°, +1°": (0.05, DEG, DEG, 0.0),
+    "−5 cm, −1°, +1°": (-0.05, -DEG, DEG, 0.0),
+    "base pitch 50 ms late": (0.0, 0.0, 0.0, 0.05),
+}
+RATE = 30.0  # frames per second of the sequences
+POSE_METHODS = ("refine_floor on (default)", "refine_floor off")
+RANSAC = "RANSAC plane of each frame (no pose needed)"
+
+
+def segway_pitch(t: float) -> float:
+    """Base pitch [rad] of a Segway rocking +-4 deg once a second (up to 25 deg/s) at time t [s]."""
+    return math.radians(4.0) * math.sin(2.0 * math.pi * t)
+
+
+@dataclass
+class PoseRow:
+    condition: str
+    method: str
+    floor_removed: float
+    obstacles_kept: float
+    phantom: float
+    false_cliff: float
+    accepted: float
+    ms: float
+
+    def markdown(self) -> str:
+        def pct(x: float) -> str:
+            return "–" if math.isnan(x) else f"{100 * x:.2f}"
+
+        return (
+            f"| {self.condition} | {self.method} | {pct(self.floor_removed)} | {pct(self.obstacles_kept)} "
+            f"| {pct(self.phantom)} | {pct(self.false_cliff)} | {pct(self.accepted)} | {self.ms:.2f} |"
+        )
+
+
+POSE_HEADER = (
+    "| told pose − true | pipeline | floor removed (< 6 m) % | obstacles kept (5 cm – 1.95 m) % "
+    "| phantom beams % | false cliff beams % | floor fit accepted % | ms / frame |\n"
+    "|---|---|---|---|---|---|---|---|"
+)
+
+
+def _frame_scores(res: Any, frame: Any) -> dict[str, float]:
+    from .metrics import frame_quality
+
+    t = frame.truth
+    q = frame_quality(res, frame)
+    obstacle = (t["object"] >= FIRST_BOX) & (t["height"] <= 2.0)
+    phantom = phantom_rates(t, res.ranges, res.angle_min, res.angle_increment, obstacle)[1]
+    cliff = np.asarray(res.cliff_ranges)
+    return {
+        "floor": q.floor_removed,
+        "kept": q.obstacles_kept,
+        "phantom": phantom,
+        "cliff": float(np.isfinite(cliff).mean()) if cliff.size else 0.0,
+    }
+
+
+def _ransac_pose(frame: Any, cam: _core.Camera) -> tuple[float, float, float] | None:
+    metres = np.where(np.isfinite(frame.metres), frame.metres, 0.0).astype(np.float32)
+    fp = _core.calibrate_from_floor(np.ascontiguousarray(metres), cam)
+    return (fp["height"], fp["pitch"], fp["roll"]) if fp["found"] else None
+
+
+def evaluate_pose_errors(
+    frames: int = 20, encoding: str = "16UC1", seed: int = 31, show_progress: bool = False
+) -> list[PoseRow]:
+    """The lab scene seen from a Segway rocking +-4 deg (the quality table's camera), the pipeline told a pose off
+    by each of POSE_ERRORS, with the floor refinement on and off, and, as the baseline, the pose of a RANSAC plane
+    fitted to each frame (calibrate's MSAC + least squares, which needs no pose). Means over the frames."""
+    import time
+
+    cam = kinect_v2_camera()
+    scene = lab_scene()
+    rendered = []
+    for i in progress(range(frames), frames, "render") if show_progress else range(frames):
+        t = i / RATE
+        rendered.append(
+            (t, render_frame(cam, scene, HEIGHT, TILT + segway_pitch(t), 0.0, encoding, seed + i, tof=True))
+        )
+    rows: list[PoseRow] = []
+    for cond, (dh, dp, dr, lag) in POSE_ERRORS.items():
+        for method in POSE_METHODS:
+            cfg = _core.Config(
+                sensor_height=HEIGHT + dh,
+                sensor_pitch=TILT + dp,
+                sensor_roll=dr,
+                refine_floor=method == POSE_METHODS[0],
+            )
+            pipe = _core.Pipeline(cam, cfg)
+            acc: dict[str, list[float]] = {}
+            for t, f in rendered:
+                t0 = time.perf_counter()
+                res = pipe.process(f.depth, segway_pitch(t - lag), 0.0, stamp=t)
+                acc.setdefault("ms", []).append(1000 * (time.perf_counter() - t0))
+                acc.setdefault("accepted", []).append(float(res.floor_fit.accepted))
+                for k, v in _frame_scores(res, f).items():
+                    acc.setdefault(k, []).append(v)
+            rows.append(_pose_row(cond, method, acc))
+    acc = {}
+    pipe = _core.Pipeline(cam, _core.Config(refine_floor=False))
+    for _, f in rendered:
+        t0 = time.perf_counter()
+        pose = _ransac_pose(f, cam)
+        res = pipe.process_pose(f.depth, *pose) if pose else pipe.process_pose(f.depth, HEIGHT, TILT, 0.0)
+        acc.setdefault("ms", []).append(1000 * (time.perf_counter() - t0))
+        acc.setdefault("accepted", []).append(float(pose is not None))
+        for k, v in _frame_scores(res, f).items():
+            acc.setdefault(k, []).append(v)
+    rows.append(_pose_row("any", RANSAC, acc))
+    return rows
+
+
+def _pose_row(cond: str, method: str, acc: dict[str, list[float]]) -> PoseRow:
+    def mean(k: str) -> float:
+        v = [x for x in acc.get(k, []) if not math.isnan(x)]
+        return float(np.mean(v)) if v else float("nan")
+
+    return PoseRow(
+        cond,
+        method,
+        mean("floor"),
+        mean("kept"),
+        mean("phantom"),
+        mean("cliff"),
+        mean("accepted"),
+        float(np.median(acc["ms"])),
+    )
+
+
+def pose_table(rows: list[PoseRow]) -> str:
+    return POSE_HEADER + "\n" + "\n".join(r.markdown() for r in rows)

@@ -230,6 +230,8 @@ def _pick_topics(connections: list[Any], opts: ReplayOptions) -> tuple[str, str]
 
 
 META_TOPIC = "/kinect_pipeline/replay_info"  #: first message of every replay output: what made it (JSON)
+#: after each processed frame's scan and cleaned image: what the floor refinement decided, and its state (JSON)
+FLOOR_TOPIC = "/kinect_pipeline/floor_fit"
 
 
 def partial_path(out: Path) -> Path:
@@ -262,6 +264,8 @@ class _Frames:
         self.camera: Any = None
         self.since = 0  # frames processed by this camera's pipeline
         self.recent: deque[Any] = deque(maxlen=2 * self.window)
+        # the floor refinement's state after each of the recent frames (None: not known)
+        self.states: deque[tuple[Any, ...] | None] = deque(maxlen=2 * self.window)
 
     def info(self, msg: Any) -> None:
         self.infos[_stamp(msg.header)] = msg
@@ -275,6 +279,7 @@ class _Frames:
         if self.camera is None or repr(cam) != repr(self.camera):
             self.pipe, self.camera, self.since = None, cam, 0
             self.recent.clear()
+            self.states.clear()
 
     def process(self, img: Any, note: bool = True) -> Any:
         """The core's result for a depth Image at the tf pose of its stamp, or None when the frame is skipped."""
@@ -296,7 +301,7 @@ class _Frames:
         try:
             q, tr = self.tf.lookup(opts.base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
             height, pitch, roll, _ = _core.pose_from_optical_transform((q, tr), opts.base_frame_height)
-            res = self.pipe.process_pose(depth, height, pitch, roll)
+            res = self.pipe.process_pose(depth, height, pitch, roll, stamp=stamp)
             report.pose_from_tf += note
         except LookupError as exc:
             if opts.pose_fallback == "skip":
@@ -308,18 +313,20 @@ class _Frames:
                 report.pose_fallback += 1
                 if report.pose_fallback == 1:
                     report.problems.append(f"{self.depth_topic} at {stamp:.3f} s: {exc}; static pose used (and later)")
-            res = self.pipe.process(depth)
+            res = self.pipe.process(depth, stamp=stamp)
         self.since += 1
         self.recent.append(img)
+        self.states.append(self.pipe.floor_state)
         return res
 
-    def processed_before(self, img: Any) -> None:
+    def processed_before(self, img: Any, floor_state: tuple[Any, ...] | None) -> None:
         """A frame whose outputs an earlier run wrote: follow the state without processing it."""
         cam = self._camera(img)
         if cam is not None:
             self._use(cam)
             self.since += 1
             self.recent.append(img)
+            self.states.append(floor_state)
 
     def warm_up(self) -> int:
         """Re-processes the last frames before a resume so that the confidence history, and the slot each range
@@ -332,8 +339,17 @@ class _Frames:
         frames = list(self.recent)[-(n - start) :]
         self.pipe, self.since = _core.Pipeline(self.camera, self.config), start
         saved = list(self.recent)[: len(self.recent) - len(frames)]
+        saved_states = list(self.states)[: len(self.states) - len(frames)]
+        if start > 0:
+            # the floor refinement continues from where the earlier run had it before these frames
+            before = saved_states[-1] if saved_states else None
+            if before is None:
+                raise ReplayError("--resume: the earlier run did not record the floor refinement's state: start anew")
+            self.pipe.floor_state = before
         self.recent.clear()
         self.recent.extend(saved)
+        self.states.clear()
+        self.states.extend(saved_states)
         for img in frames:
             self.process(img, note=False)
         return len(frames)
@@ -526,6 +542,7 @@ def replay(
             c_scan = w.add_connection(scan_topic, "sensor_msgs/msg/LaserScan", typestore=ts)
             c_clean = w.add_connection(cleaned_topic, "sensor_msgs/msg/Image", typestore=ts)
             c_meta = w.add_connection(META_TOPIC, "std_msgs/msg/String", typestore=ts)
+            c_floor = w.add_connection(FLOOR_TOPIC, "std_msgs/msg/String", typestore=ts)
             entries = bag.entries()
             first_ns = entries[0].time if entries else 0
             meta_msg = ts.types["std_msgs/msg/String"](data=json.dumps(meta, sort_keys=True))
@@ -559,9 +576,10 @@ def replay(
                             if reused:
                                 img = decode(conn, raw, off)
                                 if img is not None:
-                                    frames.processed_before(img)
+                                    frames.processed_before(img, _floor_state(reused[2]))
                                 w.write(c_scan, t_ns, reused[0])
                                 w.write(c_clean, t_ns, reused[1])
+                                w.write(c_floor, t_ns, reused[2])
                         continue
                 w.write(outs[conn.id], t_ns, raw)
                 if conn.topic == info_topic:
@@ -580,6 +598,7 @@ def replay(
                     continue
                 report.processed += 1
                 _write_outputs(w, ts, ts.types, c_scan, c_clean, t_ns, img, res, opts.scan_frame)
+                w.write(c_floor, t_ns, _floor_record(ts, res, frames.pipe))
         report.seconds = time.monotonic() - started
         os.replace(tmp, out)
         old.unlink(missing_ok=True)
@@ -597,9 +616,10 @@ def replay(
 
 def _reuse(
     earlier: _Earlier, conn: Any, t_ns: int, raw: bytes, is_depth: bool, scan_topic: str, cleaned_topic: str
-) -> tuple[bytes, bytes] | tuple[()] | None:
-    """Takes this input message's records from the earlier run: () for a message without outputs, (scan, cleaned)
-    for a depth frame it processed, None where the earlier run ends (or ends inside this frame's records)."""
+) -> tuple[bytes, bytes, bytes] | tuple[()] | None:
+    """Takes this input message's records from the earlier run: () for a message without outputs, (scan, cleaned,
+    floor fit) for a depth frame it processed, None where the earlier run ends (or ends inside this frame's
+    records)."""
     head = earlier.peek()
     if head is None:
         return None
@@ -612,16 +632,45 @@ def _reuse(
         if earlier.take() != raw:
             raise ReplayError(f"{earlier.bag.path}: {conn.topic} at {t_ns / 1e9:.9f} s differs from the input's")
         return ()
-    nxt, nxt2 = earlier.peek(1), earlier.peek(2)
+    nxt, nxt2, nxt3 = earlier.peek(1), earlier.peek(2), earlier.peek(3)
     if nxt is None:
         return None  # processed or not: cannot tell
     if nxt == (scan_topic, t_ns):
-        if nxt2 != (cleaned_topic, t_ns):
+        if nxt2 != (cleaned_topic, t_ns) or nxt3 != (FLOOR_TOPIC, t_ns):
             return None  # cut between the frame's outputs
         earlier.take()
-        return earlier.take(), earlier.take()
+        return earlier.take(), earlier.take(), earlier.take()
     earlier.take()
     return ()  # skipped by the earlier run (no pose, no camera_info): the next record is the next input message
+
+
+def _floor_record(ts: Any, res: Any, pipe: Any) -> bytes:
+    """The floor refinement of a frame as JSON: its decision and correction, and the state the next frame starts
+    from (floats as repr, so that a resumed replay continues from the same bits)."""
+    import json
+
+    f = res.floor_fit
+    rec = {
+        "reason": f.reason,
+        "pixels": f.pixels,
+        "correction": list(f.correction),
+        "learned": list(f.learned),
+        "pose": list(res.pose),
+        "state": [repr(v) if v is not None else None for v in pipe.floor_state],
+    }
+    msg = ts.types["std_msgs/msg/String"](data=json.dumps(rec, sort_keys=True))
+    return bytes(ts.serialize_ros1(msg, "std_msgs/msg/String"))
+
+
+def _floor_state(raw: bytes) -> tuple[Any, ...] | None:
+    """The state a _floor_record holds, None if it cannot be read."""
+    import json
+
+    try:
+        state = json.loads(_typestore().deserialize_ros1(raw, "std_msgs/msg/String").data)["state"]
+        return tuple(None if v is None else float(v) for v in state)
+    except (ValueError, TypeError, KeyError):
+        return None
 
 
 def _progress_frames(it: Iterator[Any], depth_topic: str, total: int, progress: Any) -> Iterator[Any]:

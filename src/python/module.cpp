@@ -410,6 +410,8 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("pixels", &FloorFitResult::pixels,
                     "image pixels on the fitted floor (support * row_step * col_step), compared with floor_min_pixels")
       .def_readonly("spread", &FloorFitResult::spread, "RMS residual of the support in units of t(d)")
+      .def_readonly("shift", &FloorFitResult::shift,
+                    "the fit's largest move of the floor where seen, in t(d); below 0.1 the frame keeps the prior")
       .def_readonly("fit", &FloorFitResult::fit, "fitted pose minus the prior (also when declined)")
       .def_readonly("correction", &FloorFitResult::applied, "the frame's pose minus the prior")
       .def_readonly("learned", &FloorFitResult::learned, "the learned correction after this frame")
@@ -470,6 +472,25 @@ PYBIND11_MODULE(_core, m)
       .def_property_readonly(
           "learned_correction", [](PyPipeline& self) { return self.pipe.floorFit().learned(); },
           "The floor refinement's learned correction now (PoseCorrection).")
+      .def_property(
+          "floor_state",
+          [](PyPipeline& self) {
+            const FloorFit::State s = self.pipe.floorFit().state();
+            return py::make_tuple(s.learned.height, s.learned.pitch, s.learned.roll,
+                                  std::isfinite(s.last_stamp) ? py::cast(s.last_stamp) : py::none());
+          },
+          [](PyPipeline& self, const py::tuple& t) {
+            if (t.size() != 4)
+              throw py::value_error("floor_state: expected (height, pitch, roll, last_stamp or None), got " +
+                                    std::string(py::repr(t)));
+            FloorFit::State s;
+            s.learned = {py::cast<double>(t[0]), py::cast<double>(t[1]), py::cast<double>(t[2])};
+            s.last_stamp = t[3].is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(t[3]);
+            std::lock_guard<std::mutex> lock(self.mutex);
+            self.pipe.restoreFloorFit(s);
+          },
+          "What the floor refinement carries between frames: (learned height [m], pitch, roll [rad], the last "
+          "frame's stamp [s] or None); set it to continue another run exactly (a resumed replay).")
       .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
           [](PyPipeline& self, const Config& c) {

@@ -116,6 +116,12 @@ Config config(FuzzedDataProvider& in)
   k.cliff_scan = in.ConsumeBool();
   k.cliff_in_scan = in.ConsumeBool();
   k.cliff_min_pixels = integer(in, 0, 5);
+  k.refine_floor = in.ConsumeBool();
+  k.floor_max_height_error = number(in, 0.0, 0.3);
+  k.floor_max_pitch_error = number(in, 0.0, 0.2);
+  k.floor_max_roll_error = number(in, 0.0, 0.2);
+  k.floor_min_pixels = integer(in, 0, 3000);
+  k.floor_learn_time = number(in, 0.0, 5.0);
   return k;
 }
 
@@ -164,8 +170,22 @@ cv::Mat image(FuzzedDataProvider& in, const Camera& cam, int& type)
   return m;
 }
 
-void checkResult(const FrameResult& r, const cv::Mat& depth, const Pipeline& p)
+void checkResult(const FrameResult& r, const cv::Mat& depth, const Pipeline& p, const SensorPose& prior)
 {
+  const Config& c = p.config();
+  const FloorFitResult& f = r.floor_fit;
+  check(static_cast<int>(f.status) < kNumFloorFitStatus, "a known floor fit status");
+  check(c.refine_floor || (f.status == FloorFitStatus::kOff && r.pose.height == prior.height &&
+                           r.pose.pitch == prior.pitch && r.pose.roll == prior.roll),
+        "refine_floor off: the prior exactly");
+  check(std::isfinite(r.pose.height) && r.pose.height > 0.0 && r.pose.height < c.ceiling_height,
+        "the pose processed at is a valid pose");
+  if (f.accepted())
+    check(std::fabs(r.pose.height - prior.height) <= c.floor_max_height_error * (1 + 1e-9) &&
+              std::fabs(r.pose.pitch - prior.pitch) <= c.floor_max_pitch_error * (1 + 1e-9) &&
+              std::fabs(r.pose.roll - prior.roll) <= c.floor_max_roll_error * (1 + 1e-9),
+          "an accepted floor fit moves the pose within the bounds");
+  check(f.support <= f.candidates && f.pixels >= 0, "the fit's support is among its candidates");
   check(r.depth.size() == depth.size() && r.depth.type() == depth.type(), "cleaned depth has the input's size/type");
   check(r.labels.size() == depth.size() && r.labels.type() == CV_8UC1, "labels are CV_8UC1 of the input's size");
   std::uint64_t total = 0;
@@ -220,7 +240,7 @@ void run(FuzzedDataProvider& in)
     FrameResult r;
     const cv::Mat depth(24, 32, CV_16UC1, cv::Scalar(1500));
     p.process(depth, sp, r);
-    checkResult(r, depth, p);
+    checkResult(r, depth, p, sp);
     return;
   }
   if (what == 2)
@@ -269,8 +289,10 @@ void run(FuzzedDataProvider& in)
           if (std::getenv("KP_FUZZ_VERBOSE"))
             std::fprintf(stderr, "frame %d: %dx%d type %d, base pitch %g roll %g\n", f, depth.cols, depth.rows, type,
                          pitch, roll);
-          p.process(depth, pitch, roll, r);
-          checkResult(r, depth, p);
+          const double stamp = in.ConsumeBool() ? std::nan("") : number(in, -5.0, 5.0);
+          const Config& c = p.config();
+          p.process(depth, pitch, roll, r, stamp);
+          checkResult(r, depth, p, {c.sensor_height, c.sensor_pitch + pitch, c.sensor_roll + roll});
           break;
         }
         case 1:
@@ -279,8 +301,8 @@ void run(FuzzedDataProvider& in)
           if (std::getenv("KP_FUZZ_VERBOSE"))
             std::fprintf(stderr, "frame %d: %dx%d type %d, pose %g %g %g\n", f, depth.cols, depth.rows, type,
                          sp.height, sp.pitch, sp.roll);
-          p.process(depth, sp, r);
-          checkResult(r, depth, p);
+          p.process(depth, sp, r, number(in, -5.0, 5.0));
+          checkResult(r, depth, p, sp);
           break;
         }
         case 2:

@@ -39,11 +39,12 @@ def test_default_quality_on_noisy_frames(
 
 
 def test_the_quality_check_can_fail() -> None:
-    """The same frame at a wrong pose (configured 2 deg too level) must fail the floor check: the metric has
-    teeth. (Too steep would label the floor "below floor", which also removes it.)"""
+    """The same frame at a wrong pose (configured 2 deg too level), without the floor refinement that would correct
+    it, must fail the floor check: the metric has teeth. (Too steep would label the floor "below floor", which also
+    removes it.)"""
     cam = kp.kinect_v2_camera()
     tilt = math.radians(15)
-    pipe = kp.Pipeline(cam, kp.Config(sensor_height=1.1, sensor_pitch=tilt - math.radians(2)))
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=1.1, sensor_pitch=tilt - math.radians(2), refine_floor=False))
     frame = render_frame(cam, lab_scene(), 1.1, tilt, 0.0, "16UC1", seed=7)
     q = frame_quality(pipe.process(frame.depth), frame)
     assert q.floor_removed < 0.995
