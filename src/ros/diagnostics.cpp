@@ -116,6 +116,7 @@ void KinectPipelineRos::diagnoseFloor(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("support samples", f.support);
   stat.add("support pixels", f.pixels);
   stat.add("residual spread [t(d)]", f.spread);
+  stat.add("fit shift [t(d)]", f.shift);  // below 0.1: noise, the frame keeps the prior
   addCorrection(stat, "correction", f.applied);
   addCorrection(stat, "learned", f.learned);
   addPose(stat, "told pose", last_prior_);
