@@ -93,6 +93,11 @@ def start_manager(ros: RosGraph, name: str, ns: str | None = None) -> None:
     wait_for(f"manager {full}", lambda: _has_service(ros, full + "/load_nodelet"), timeout=60)
 
 
+def node_log(ros: RosGraph) -> str:
+    """What the node printed: the launch's output, or for the nodelet its manager's."""
+    return ros.log("launch") + ros.log("manager_kinect2_manager")
+
+
 def manager_args(ros: RosGraph, kind: str) -> list[str]:
     """The launch arguments for the standalone node, or for the nodelet in a manager started here."""
     if kind == "node":
@@ -235,7 +240,7 @@ def test_compressed_depth_is_decoded_and_bad_payloads_are_dropped(
     got = {s["stamp"] for s in res["scans"]}
     span = [(i, t) for i, t in enumerate(res["sent"]) if min(got) <= t <= max(got)]
     assert [i for i, t in span if (t in got) != (i % 5 != 4)] == []
-    log = ros.log("launch") + ros.log("manager_kinect2_manager")
+    log = node_log(ros)
     assert lines(log, "frame dropped (bad compressedDepth payload)")
 
 
@@ -291,7 +296,7 @@ def test_unknown_parameters_are_warned_once_naming_ours(ros: RosGraph, tmp_path:
     ros.launch("launch", "kinect_pipeline.launch", "pose_source:=static", f"params:={params}", *manager)
     res = ros.feed("feed", "--noise-free", "--until", "len(scans) >= 3")
     assert {s["range_max"] for s in res["scans"]} == {4.0}
-    log = ros.log("launch") + ros.log("manager_kinect2_manager")
+    log = node_log(ros)
     frame_id = lines(log, "~output_frame_id is not a parameter")
     assert len(frame_id) == 1 and "closest of ours is ~scan_frame" in frame_id[0], frame_id
     pich = lines(log, "~sensor_pich is not a parameter")
@@ -299,9 +304,18 @@ def test_unknown_parameters_are_warned_once_naming_ours(ros: RosGraph, tmp_path:
 
 
 # ------------------------------------------------------------------------------------------------------------ item 5
-def test_sim_clock_starting_late_and_jumping_back(sim: RosGraph, tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["node", "nodelet"])
+def test_sim_clock_starting_late_and_jumping_back(sim: RosGraph, tmp_path: Path, kind: str) -> None:
     params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
-    sim.launch("launch", "kinect_pipeline.launch", "pose_source:=static", f"sensor_pitch:={TILT}", f"params:={params}")
+    manager = manager_args(sim, kind)
+    sim.launch(
+        "launch",
+        "kinect_pipeline.launch",
+        "pose_source:=static",
+        f"sensor_pitch:={TILT}",
+        f"params:={params}",
+        *manager,
+    )
     wait_for("the node", lambda: _has_topic(sim, "/kinect2/scan"))
     res = sim.feed(
         "feed",
@@ -321,15 +335,16 @@ def test_sim_clock_starting_late_and_jumping_back(sim: RosGraph, tmp_path: Path)
     assert len(back) >= 20  # frames after the jump are served
     want = core_ranges(frame(), TILT)
     assert all(same(s, want) for s in back)
-    warned = lines(sim.log("launch"), "ROS time moved backwards")
+    warned = lines(node_log(sim), "ROS time moved backwards")
     assert len(warned) == 1, warned
     assert int(newest(res, PROC, "clock jumps back") or 0) == 1
 
 
-def test_rosbag_play_loop_with_wall_time_starts_over_each_pass(ros: RosGraph) -> None:
+@pytest.mark.parametrize("kind", ["node", "nodelet"])
+def test_rosbag_play_loop_with_wall_time_starts_over_each_pass(ros: RosGraph, kind: str) -> None:
     if not BAG.exists():
         pytest.skip("no test bag: build the tests first")
-    ros.launch("launch", "kinect_pipeline.launch")
+    ros.launch("launch", "kinect_pipeline.launch", *manager_args(ros, kind))
     wait_for("the node", lambda: _has_topic(ros, "/kinect2/scan"))
     ros.start("player", "rosbag", "play", "-l", "--quiet", str(BAG))
     res = ros.feed(
@@ -342,7 +357,7 @@ def test_rosbag_play_loop_with_wall_time_starts_over_each_pass(ros: RosGraph) ->
     )
     stamps = [s["stamp"] for s in res["scans"]]
     jumps = sum(1 for a, b in itertools.pairwise(stamps) if b < a)
-    warned = lines(ros.log("launch"), "the image stamps jumped back")
+    warned = lines(node_log(ros), "the image stamps jumped back")
     assert jumps >= 2 and len(warned) >= jumps, (jumps, warned)
     per_pass = len(set(stamps))
     assert per_pass >= 30  # the 40 frames of each pass are served, not dropped as older than the last
@@ -350,10 +365,11 @@ def test_rosbag_play_loop_with_wall_time_starts_over_each_pass(ros: RosGraph) ->
     assert int(newest(res, PROC, "stamp jumps back") or 0) >= jumps
 
 
-def test_second_rosbag_play_with_clock_keeps_diagnostics(sim: RosGraph) -> None:
+@pytest.mark.parametrize("kind", ["node", "nodelet"])
+def test_second_rosbag_play_with_clock_keeps_diagnostics(sim: RosGraph, kind: str) -> None:
     if not BAG.exists():
         pytest.skip("no test bag: build the tests first")
-    sim.launch("launch", "kinect_pipeline.launch")
+    sim.launch("launch", "kinect_pipeline.launch", *manager_args(sim, kind))
     wait_for("the node", lambda: _has_topic(sim, "/kinect2/scan"))
     for run in (1, 2):
         # At half speed: the 1.3 s bag spans a few diagnostics (2 Hz, wall time).
@@ -368,13 +384,16 @@ def test_second_rosbag_play_with_clock_keeps_diagnostics(sim: RosGraph) -> None:
             deadline=90,
         )
         assert exit_code(player, 120) == 0  # diagnostics came on the bag's clock, the second time too
-    assert len(lines(sim.log("launch"), "ROS time moved backwards")) == 1
+    assert len(lines(node_log(sim), "ROS time moved backwards")) == 1
 
 
 # ------------------------------------------------------------------------------------------------------------ item 6
-def test_tf_stopping_holds_the_last_pose_then_falls_back_with_a_warning(ros: RosGraph, tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["node", "nodelet"])
+def test_tf_stopping_holds_the_last_pose_then_falls_back_with_a_warning(
+    ros: RosGraph, tmp_path: Path, kind: str
+) -> None:
     params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
-    ros.launch("launch", "kinect_pipeline.launch", "pose_hold_time:=1.0", f"params:={params}")
+    ros.launch("launch", "kinect_pipeline.launch", "pose_hold_time:=1.0", f"params:={params}", *manager_args(ros, kind))
     res = ros.feed(
         "feed",
         "--noise-free",
@@ -392,7 +411,7 @@ def test_tf_stopping_holds_the_last_pose_then_falls_back_with_a_warning(ros: Ros
     assert held and later
     assert all(same(s, at_tf) for s in held), "the last good pose was not held for pose_hold_time"
     assert all(same(s, at_static) for s in later), "no static pose after pose_hold_time"
-    warned = lines(ros.log("launch"), "differs from the last tf pose")
+    warned = lines(node_log(ros), "differs from the last tf pose")
     assert len(warned) == 1 and "pitch by -14.90 deg" in warned[0], warned
     assert int(newest(res, PROC, "pose fallbacks: last good pose") or 0) > 0
     assert all(t["parent"] == "base_footprint" for t in res["tfs"])
@@ -420,10 +439,15 @@ def _rotation(q: list[float]) -> np.ndarray:
     )
 
 
-@pytest.mark.parametrize("source", ["static", "imu", "pitch_topic"])
-def test_scan_frame_is_broadcast_without_tf(ros: RosGraph, tmp_path: Path, source: str) -> None:
+@pytest.mark.parametrize(
+    ("kind", "source"), [("node", "static"), ("node", "imu"), ("node", "pitch_topic"), ("nodelet", "static")]
+)
+def test_scan_frame_is_broadcast_without_tf(ros: RosGraph, tmp_path: Path, kind: str, source: str) -> None:
     params = yaml_file(tmp_path / "p.yaml", refine_floor=False, sensor_roll=0.02)
-    ros.launch("launch", "kinect_pipeline.launch", f"pose_source:={source}", "sensor_pitch:=0.2", f"params:={params}")
+    manager = manager_args(ros, kind)
+    ros.launch(
+        "launch", "kinect_pipeline.launch", f"pose_source:={source}", "sensor_pitch:=0.2", f"params:={params}", *manager
+    )
     extra = {"imu": ["--imu-pitch", "0.06"], "pitch_topic": ["--base-pitch", "0.06"]}.get(source, [])
     res = ros.feed(
         "feed",
@@ -442,11 +466,15 @@ def test_scan_frame_is_broadcast_without_tf(ros: RosGraph, tmp_path: Path, sourc
 
 
 # ------------------------------------------------------------------------------------------------------------ item 7
-def test_launch_arguments_reach_the_node_and_the_tf_wait_is_reported_apart(ros: RosGraph, tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["node", "nodelet"])
+def test_launch_arguments_reach_the_node_and_the_tf_wait_is_reported_apart(
+    ros: RosGraph, tmp_path: Path, kind: str
+) -> None:
     params = yaml_file(tmp_path / "p.yaml", tf_timeout=0.3)
     ros.launch(
         "launch",
         "kinect_pipeline.launch",
+        *manager_args(ros, kind),
         "range_min:=0.3",
         "range_max:=4.0",
         "num_threads:=2",
