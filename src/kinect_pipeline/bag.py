@@ -8,7 +8,6 @@ The tf tree is the one of a Segway robot: ``base_footprint`` (on the floor, grav
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +17,7 @@ import numpy as np
 from . import _core, kinect_v2_camera
 from .demo import SegwayMotion, progress
 from .metrics import ideal_scan
+from .outputs import atomic_new
 from .scenes import ENCODINGS, KEPT, Scene, lab_scene, render_frame, truth_labels
 
 AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
@@ -135,133 +135,121 @@ def write_sequence_bag(
             ),
         )
 
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    if tmp.exists():
-        tmp.unlink()
     lidar_beams, lidar_min = 720, -math.pi * 0.75
     lidar_inc = 1.5 * math.pi / lidar_beams
     pitches: list[float] = []
-    try:
-        with Writer(tmp) as w:
-            c_img = w.add_connection(rig.image_topic, Image.__msgtype__, typestore=ts)
-            c_info = w.add_connection(rig.info_topic, CameraInfo.__msgtype__, typestore=ts)
-            c_tf = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
-            c_tfs = w.add_connection("/tf_static", TFMessage.__msgtype__, typestore=ts, latching=1)
-            c_lidar = w.add_connection(rig.lidar_topic, LaserScan.__msgtype__, typestore=ts)
-            c_gt_labels = w.add_connection("/ground_truth/labels", Image.__msgtype__, typestore=ts)
-            c_gt_scan = w.add_connection("/ground_truth/scan", LaserScan.__msgtype__, typestore=ts)
-            # The beams of the pipeline's default scan, for the ideal scan.
-            probe = _core.Pipeline(cam, _core.Config()).process(np.zeros((cam.height, cam.width), np.uint16))
-            t0 = start_s
-            static = TFMessage(
-                transforms=[
-                    # Roll about the sensor's own axis after its tilt: R = Ry(tilt) Rx(roll), so that with the base's
-                    # pitch the total is Ry(base + tilt) Rx(roll), the renderer's convention, exactly.
-                    tf(
-                        "base_link",
-                        "kinect2_link",
-                        t0,
-                        (rig.kinect_xyz[0], rig.kinect_xyz[1], rig.kinect_xyz[2] + tf_error[0]),
-                        _quat_from_rpy(roll + tf_error[2], rig.kinect_tilt + tf_error[1], 0.0),
-                    ),
-                    tf("kinect2_link", rig.optical_frame, t0, (0.0, 0.0, 0.0), _OPTICAL_IN_BODY),
-                    tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
-                ]
+    with atomic_new(path) as tmp, Writer(tmp) as w:
+        c_img = w.add_connection(rig.image_topic, Image.__msgtype__, typestore=ts)
+        c_info = w.add_connection(rig.info_topic, CameraInfo.__msgtype__, typestore=ts)
+        c_tf = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
+        c_tfs = w.add_connection("/tf_static", TFMessage.__msgtype__, typestore=ts, latching=1)
+        c_lidar = w.add_connection(rig.lidar_topic, LaserScan.__msgtype__, typestore=ts)
+        c_gt_labels = w.add_connection("/ground_truth/labels", Image.__msgtype__, typestore=ts)
+        c_gt_scan = w.add_connection("/ground_truth/scan", LaserScan.__msgtype__, typestore=ts)
+        # The beams of the pipeline's default scan, for the ideal scan.
+        probe = _core.Pipeline(cam, _core.Config()).process(np.zeros((cam.height, cam.width), np.uint16))
+        t0 = start_s
+        static = TFMessage(
+            transforms=[
+                # Roll about the sensor's own axis after its tilt: R = Ry(tilt) Rx(roll), so that with the base's
+                # pitch the total is Ry(base + tilt) Rx(roll), the renderer's convention, exactly.
+                tf(
+                    "base_link",
+                    "kinect2_link",
+                    t0,
+                    (rig.kinect_xyz[0], rig.kinect_xyz[1], rig.kinect_xyz[2] + tf_error[0]),
+                    _quat_from_rpy(roll + tf_error[2], rig.kinect_tilt + tf_error[1], 0.0),
+                ),
+                tf("kinect2_link", rig.optical_frame, t0, (0.0, 0.0, 0.0), _OPTICAL_IN_BODY),
+                tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
+            ]
+        )
+        w.write(c_tfs, int(t0 * 1e9), ts.serialize_ros1(static, TFMessage.__msgtype__))
+        for i in progress(range(frames), frames, "synth") if show_progress else range(frames):
+            t = t0 + 0.05 + i / rate_hz
+            ns = round(t * 1e9)
+            bp = motion.pitch(i)
+            pitches.append(bp)
+            px, _, total_pitch, height = rig.sensor_pose(bp)
+            # The renderer's frame sits under the sensor: move the world by the sensor's x.
+            shifted = Scene(
+                boxes=tuple((b[0] - px, b[1] - px, *b[2:]) for b in scene.boxes),
+                holes=tuple((h[0] - px, h[1] - px, h[2], h[3]) for h in scene.holes),
+                hole_depth=scene.hole_depth,
+                ceiling=scene.ceiling,
             )
-            w.write(c_tfs, int(t0 * 1e9), ts.serialize_ros1(static, TFMessage.__msgtype__))
-            for i in progress(range(frames), frames, "synth") if show_progress else range(frames):
-                t = t0 + 0.05 + i / rate_hz
-                ns = round(t * 1e9)
-                bp = motion.pitch(i)
-                pitches.append(bp)
-                px, _, total_pitch, height = rig.sensor_pose(bp)
-                # The renderer's frame sits under the sensor: move the world by the sensor's x.
-                shifted = Scene(
-                    boxes=tuple((b[0] - px, b[1] - px, *b[2:]) for b in scene.boxes),
-                    holes=tuple((h[0] - px, h[1] - px, h[2], h[3]) for h in scene.holes),
-                    hole_depth=scene.hole_depth,
-                    ceiling=scene.ceiling,
-                )
-                frame = render_frame(cam, shifted, height, total_pitch, roll, encoding, seed + i, max_depth, tof=tof)
-                base = TFMessage(
-                    transforms=[
-                        tf("base_footprint", "base_link", t, (0.0, 0.0, AXLE_HEIGHT), _quat_from_rpy(0.0, bp, 0.0))
-                    ]
-                )
-                w.write(c_tf, ns, ts.serialize_ros1(base, TFMessage.__msgtype__))
-                header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
-                depth = np.ascontiguousarray(frame.depth)
-                img = Image(
-                    header=header,
-                    height=depth.shape[0],
-                    width=depth.shape[1],
-                    encoding=encoding,
-                    is_bigendian=0,
-                    step=depth.strides[0],
-                    data=depth.view(np.uint8).reshape(-1),
-                )
-                info = CameraInfo(
-                    header=header,
-                    height=cam.height,
-                    width=cam.width,
-                    distortion_model="plumb_bob",
-                    D=np.zeros(5),
-                    K=np.array([cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1.0]),
-                    R=np.eye(3).reshape(-1),
-                    P=np.array([cam.fx, 0, cam.cx, 0, 0, cam.fy, cam.cy, 0, 0, 0, 1.0, 0]),
-                    binning_x=0,
-                    binning_y=0,
-                    roi=RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
-                )
-                w.write(c_info, ns + 1, ts.serialize_ros1(info, CameraInfo.__msgtype__))
-                w.write(c_img, ns + 2, ts.serialize_ros1(img, Image.__msgtype__))
-                lidar_boxes = [(b[0] - 0.2, b[1] - 0.2, *b[2:]) for b in scene.boxes]
-                ranges = _core.render_lidar(lidar_boxes, rig.lidar_height, lidar_min, lidar_inc, lidar_beams, 30.0)
-                scan = LaserScan(
-                    header=Header(seq=i, stamp=stamp(t), frame_id="laser"),
-                    angle_min=lidar_min,
-                    angle_max=lidar_min + lidar_inc * (lidar_beams - 1),
-                    angle_increment=lidar_inc,
-                    time_increment=0.0,
-                    scan_time=1.0 / rate_hz,
-                    range_min=0.05,
-                    range_max=30.0,
-                    ranges=ranges,
-                    intensities=np.zeros(0, np.float32),
-                )
-                w.write(c_lidar, ns + 3, ts.serialize_ros1(scan, LaserScan.__msgtype__))
-                labels = truth_labels(frame.truth, ceiling_height)
-                gt_img = Image(
-                    header=header,
-                    height=labels.shape[0],
-                    width=labels.shape[1],
-                    encoding="mono8",
-                    is_bigendian=0,
-                    step=labels.shape[1],
-                    data=labels.reshape(-1),
-                )
-                w.write(c_gt_labels, ns + 4, ts.serialize_ros1(gt_img, Image.__msgtype__))
-                # The ideal scan is seen from the optical centre, as the pipeline's (x shifted by px).
-                ideal = ideal_scan(
-                    frame.truth, probe.angle_min, probe.angle_increment, len(probe.ranges), labels == KEPT
-                )
-                gt_scan = LaserScan(
-                    header=Header(seq=i, stamp=stamp(t), frame_id="kinect2_scan"),
-                    angle_min=probe.angle_min,
-                    angle_max=probe.angle_max,
-                    angle_increment=probe.angle_increment,
-                    time_increment=0.0,
-                    scan_time=1.0 / rate_hz,
-                    range_min=probe.range_min,
-                    range_max=probe.range_max,
-                    ranges=ideal.astype(np.float32),
-                    intensities=np.zeros(0, np.float32),
-                )
-                w.write(c_gt_scan, ns + 5, ts.serialize_ros1(gt_scan, LaserScan.__msgtype__))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+            frame = render_frame(cam, shifted, height, total_pitch, roll, encoding, seed + i, max_depth, tof=tof)
+            base = TFMessage(
+                transforms=[tf("base_footprint", "base_link", t, (0.0, 0.0, AXLE_HEIGHT), _quat_from_rpy(0.0, bp, 0.0))]
+            )
+            w.write(c_tf, ns, ts.serialize_ros1(base, TFMessage.__msgtype__))
+            header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
+            depth = np.ascontiguousarray(frame.depth)
+            img = Image(
+                header=header,
+                height=depth.shape[0],
+                width=depth.shape[1],
+                encoding=encoding,
+                is_bigendian=0,
+                step=depth.strides[0],
+                data=depth.view(np.uint8).reshape(-1),
+            )
+            info = CameraInfo(
+                header=header,
+                height=cam.height,
+                width=cam.width,
+                distortion_model="plumb_bob",
+                D=np.zeros(5),
+                K=np.array([cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1.0]),
+                R=np.eye(3).reshape(-1),
+                P=np.array([cam.fx, 0, cam.cx, 0, 0, cam.fy, cam.cy, 0, 0, 0, 1.0, 0]),
+                binning_x=0,
+                binning_y=0,
+                roi=RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+            )
+            w.write(c_info, ns + 1, ts.serialize_ros1(info, CameraInfo.__msgtype__))
+            w.write(c_img, ns + 2, ts.serialize_ros1(img, Image.__msgtype__))
+            lidar_boxes = [(b[0] - 0.2, b[1] - 0.2, *b[2:]) for b in scene.boxes]
+            ranges = _core.render_lidar(lidar_boxes, rig.lidar_height, lidar_min, lidar_inc, lidar_beams, 30.0)
+            scan = LaserScan(
+                header=Header(seq=i, stamp=stamp(t), frame_id="laser"),
+                angle_min=lidar_min,
+                angle_max=lidar_min + lidar_inc * (lidar_beams - 1),
+                angle_increment=lidar_inc,
+                time_increment=0.0,
+                scan_time=1.0 / rate_hz,
+                range_min=0.05,
+                range_max=30.0,
+                ranges=ranges,
+                intensities=np.zeros(0, np.float32),
+            )
+            w.write(c_lidar, ns + 3, ts.serialize_ros1(scan, LaserScan.__msgtype__))
+            labels = truth_labels(frame.truth, ceiling_height)
+            gt_img = Image(
+                header=header,
+                height=labels.shape[0],
+                width=labels.shape[1],
+                encoding="mono8",
+                is_bigendian=0,
+                step=labels.shape[1],
+                data=labels.reshape(-1),
+            )
+            w.write(c_gt_labels, ns + 4, ts.serialize_ros1(gt_img, Image.__msgtype__))
+            # The ideal scan is seen from the optical centre, as the pipeline's (x shifted by px).
+            ideal = ideal_scan(frame.truth, probe.angle_min, probe.angle_increment, len(probe.ranges), labels == KEPT)
+            gt_scan = LaserScan(
+                header=Header(seq=i, stamp=stamp(t), frame_id="kinect2_scan"),
+                angle_min=probe.angle_min,
+                angle_max=probe.angle_max,
+                angle_increment=probe.angle_increment,
+                time_increment=0.0,
+                scan_time=1.0 / rate_hz,
+                range_min=probe.range_min,
+                range_max=probe.range_max,
+                ranges=ideal.astype(np.float32),
+                intensities=np.zeros(0, np.float32),
+            )
+            w.write(c_gt_scan, ns + 5, ts.serialize_ros1(gt_scan, LaserScan.__msgtype__))
     return {
         "path": str(path),
         "frames": frames,

@@ -5,7 +5,7 @@ The plane search and fit are the C++ core's (``calibrate_from_floor``); this mod
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +16,25 @@ from . import _core
 
 class CalibrationError(ValueError):
     """A frame that cannot be read or used; the message names it."""
+
+
+#: What a folder of depth frames is read for (in name order).
+FRAME_SUFFIXES = (".png", ".pgm", ".npy", ".tif", ".tiff")
+
+
+def frame_paths(items: list[Path]) -> list[Path]:
+    """The depth frames named: files as they are, folders as the frames in them (``FRAME_SUFFIXES``, in name
+    order). A folder without frames raises CalibrationError naming it."""
+    out: list[Path] = []
+    for item in items:
+        if item.is_dir():
+            found = sorted(p for p in item.iterdir() if p.suffix.lower() in FRAME_SUFFIXES and p.is_file())
+            if not found:
+                raise CalibrationError(f"{item}: a folder without depth frames ({', '.join(FRAME_SUFFIXES)})")
+            out.extend(found)
+        else:
+            out.append(item)
+    return out
 
 
 def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) -> np.ndarray:
@@ -70,6 +89,7 @@ class Calibration:
     roll_std: float
     frames: list[dict[str, Any]]
     message: str = ""
+    warnings: list[str] = field(default_factory=list)  #: frames that disagree, a weak fit
 
     def as_dict(self, parent: str = "base_footprint", child: str = "kinect2_depth_optical_frame") -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -309,7 +329,7 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     good = [f for f in check.frames if f["found"]]
     t0 = check.frames[0]["stamp"]
@@ -341,5 +361,5 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
             f"height bias {100 * s['height']['median']:+.1f} cm (median of tf - floor)"
         )
     fig.tight_layout()
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

@@ -8,8 +8,6 @@ nearer than t). Also a curve from a noise model alone, for users without data.""
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import NormalDist
@@ -19,6 +17,7 @@ import numpy as np
 
 from . import _core
 from .calibrate import calibrate
+from .outputs import write_text
 
 DEPTHS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0)
 
@@ -114,10 +113,7 @@ def write_yaml(fit: CurveFit, path: Path) -> None:
         f"# kinect-pipeline curve: sigma(d) = {fit.sigma0:.5f} + {fit.k_quad:.5f} (d - 0.4)^2, "
         f't = {fit.k:.2f} sigma + {fit.margin:g}\nthreshold_curve: "{fit.text}"\n'
     )
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
+    write_text(path, text)
 
 
 def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
@@ -126,7 +122,7 @@ def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 5))
     if fit.residuals is not None:
@@ -145,7 +141,7 @@ def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
     ax.grid(True, color="0.85")
     ax.legend(fontsize=8)
     ax.set_title(f"threshold curve: k = {fit.k:.2f}, margin {fit.margin:g} m")
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -361,7 +357,7 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5))
     d = np.linspace(0.5, 8.0, 200)
@@ -390,5 +386,5 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     b.grid(True, axis="y", color="0.85")
     b.set_title("on generated noisy frames (Segway pitching)")
     fig.tight_layout()
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import _core
 from .bagfile import Bag, BagError, Damage
+from .outputs import OutputError, check_outputs
 
 Tf = tuple[tuple[float, float, float, float], tuple[float, float, float]]
 
@@ -453,9 +454,10 @@ def replay(
         raise ReplayError(f"{inp}: no such bag")
     tmp = partial_path(out)
     old = tmp.with_name(tmp.name + ".old")
-    for p in (out, tmp, old):
-        if p.exists() and os.path.samefile(p, inp):
-            raise ReplayError(f"output {p} is the input: the replay never overwrites its input")
+    try:
+        check_outputs([inp], [out, tmp, old])
+    except OutputError as exc:
+        raise ReplayError(str(exc)) from exc
     if not resume:
         if out.exists():
             raise ReplayError(
@@ -606,6 +608,10 @@ def replay(
     except KeyboardInterrupt:
         keep_partial = written
         raise
+    except OSError as exc:
+        if exc.filename not in (None, str(tmp), str(old)):
+            raise
+        raise ReplayError(f"cannot write {out}: {exc.strerror or exc}") from exc
     finally:
         bag.close()
         if earlier is not None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 import html
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,8 +18,9 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .demo import _save_atomic, plot_frame
+from .demo import plot_frame
 from .metrics import missed_beams, phantom_beams
+from .outputs import check_outputs, output_folder, save_figure, write_text
 from .replay import (
     ReplayError,
     ReplayOptions,
@@ -145,6 +145,10 @@ def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_lab
     return out
 
 
+#: What a report writes into its folder.
+FILES = ("frame.png", "scan.png", "confidence.png", "timing.png", "quality.json", "index.html")
+
+
 def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float, float, float]) -> np.ndarray:
     a = angle_min + inc * np.arange(len(ranges)) + pose[2]
     ok = np.isfinite(ranges)
@@ -154,14 +158,23 @@ def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float,
 def write_report(
     bag: Path, out_dir: Path, opts: ReplayOptions | None = None, show_progress: bool = True
 ) -> dict[str, Any]:
+    """Runs the core over ``bag`` and writes the report's pictures, ``index.html`` (and ``quality.json`` with
+    ground truth) into ``out_dir``: nothing is written when the bag cannot be used, and none of the report's files
+    may be the input."""
+    opts = opts or ReplayOptions()
+    bag, out_dir = Path(bag), Path(out_dir)
+    check_outputs([bag], [out_dir / name for name in FILES], folders=[out_dir])
+    c = collect(bag, opts, show_progress)
+    with output_folder(out_dir):
+        return _write(bag, out_dir, c)
+
+
+def _write(bag: Path, out_dir: Path, c: Collected) -> dict[str, Any]:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    opts = opts or ReplayOptions()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    c = collect(bag, opts, show_progress)
     assert c.showcase is not None
     depth, res, max_depth = c.showcase
     pictures: list[tuple[str, str]] = []
@@ -189,7 +202,7 @@ def write_report(
     ax.set_ylabel("y left [m]")
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title(f"scan at {fr.stamp:.2f} s, pitch {math.degrees(fr.pose[1]):.1f} deg")
-    _save_atomic(fig, out_dir / "scan.png")
+    save_figure(fig, out_dir / "scan.png")
     plt.close(fig)
     pictures.append(("scan.png", "The Kinect scan over the LiDAR scan in the robot frame, 1 m grid (thesis fig 4.20b)"))
 
@@ -210,7 +223,7 @@ def write_report(
         a.set_xlabel("x forward [m]")
     ax[0].set_ylabel("y left [m]")
     fig.colorbar(sc, ax=ax.tolist(), shrink=0.7, label="intensity (confidence)")
-    _save_atomic(fig, out_dir / "confidence.png")
+    save_figure(fig, out_dir / "confidence.png")
     plt.close(fig)
     pictures.append(
         ("confidence.png", "All scans of the bag, coloured by confidence, before and after the filter (fig 4.21)")
@@ -222,7 +235,7 @@ def write_report(
     ax.set_xlabel("frame")
     ax.set_ylabel("core time per frame [ms]")
     ax.grid(True, color="0.85")
-    _save_atomic(fig, out_dir / "timing.png")
+    save_figure(fig, out_dir / "timing.png")
     plt.close(fig)
     pictures.append(("timing.png", "Per-frame processing time of the core"))
 
@@ -252,9 +265,7 @@ def write_report(
         summary["phantom_beams_5cm"] = phantom_5cm / beams
         summary["missed_beams"] = missed / beams
         summary["label_agreement_min"] = float(np.nanmin([f.labels_match for f in with_gt]))
-        tmp = out_dir / "quality.json.tmp"
-        tmp.write_text(json.dumps(summary, indent=1))
-        os.replace(tmp, out_dir / "quality.json")
+        write_text(out_dir / "quality.json", json.dumps(summary, indent=1))
     rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
     figs = "".join(
         f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
@@ -264,8 +275,6 @@ def write_report(
         f"<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
         f"<h1>kinect_pipeline report</h1><p>{html.escape(str(bag))}</p><table>{rows}</table>{figs}</body></html>"
     )
-    tmp = out_dir / "index.html.tmp"
-    tmp.write_text(page)
-    os.replace(tmp, out_dir / "index.html")
+    write_text(out_dir / "index.html", page)
     summary["pictures"] = [p for p, _ in pictures] + ["index.html"]
     return summary
