@@ -338,13 +338,7 @@ def comparison_table(scores: list[CurveScore]) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for s in scores:
-        cfg = _core.Config(threshold_curve=s.curve)
-        pts = cfg.threshold_curve
-
-        def at(d: float, pts: list[tuple[float, float]] = pts) -> float:
-            return float(np.interp(d, [p[0] for p in pts], [p[1] for p in pts]))
-
-        t = " / ".join(f"{100 * at(d):.1f}" for d in (1, 2, 4, 6))
+        t = " / ".join(f"{100 * _core.evaluate_curve(s.curve, d):.1f}" for d in (1.0, 2.0, 4.0, 6.0))
         rem = " | ".join(f"{100 * x:.2f}" for x in s.removed)
         lines.append(f"| {s.name} | {t} | {100 * s.false_obstacle:.3f} | {100 * s.phantom:.2f} | {rem} |")
     return "\n".join(lines)
@@ -363,8 +357,7 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     d = np.linspace(0.5, 8.0, 200)
     styles = ["b-", "r--", "m:", "0.5"]
     for s, st in zip(scores, styles, strict=False):
-        pts = _core.Config(threshold_curve=s.curve).threshold_curve
-        a.plot(d, 100 * np.interp(d, [p[0] for p in pts], [p[1] for p in pts]), st, label=s.name)
+        a.plot(d, 100 * _core.evaluate_curve(s.curve, d), st, label=s.name)
     a.set_xlabel("depth [m]")
     a.set_ylabel("threshold t(d) [cm]")
     a.set_ylim(0, 60)

@@ -15,6 +15,7 @@
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/compressed_depth.h"
 #include "kinect_pipeline/config.h"
+#include "kinect_pipeline/depth_image.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/pose.h"
@@ -547,8 +548,62 @@ PYBIND11_MODULE(_core, m)
         setConfigField(c, "threshold_curve", curve);
         return evaluateCurve(c.threshold_curve, depth);
       },
-      py::arg("curve"), py::arg("depth"), "t(depth) [m] by piecewise-linear interpolation.");
+      py::arg("curve"), py::arg("depth"),
+      "t(depth) [m] of a threshold curve ('d:t, ...' text or (depth, threshold) pairs) by piecewise-linear "
+      "interpolation, flat beyond the ends; depth may also be an array of depths [m].");
+  m.def(
+      "evaluate_curve",
+      [](const py::object& curve, const py::array_t<double, py::array::forcecast>& depths) {
+        Config c;
+        setConfigField(c, "threshold_curve", curve);
+        py::array_t<double> out(depths.request().shape);
+        const double* in = depths.data();
+        double* o = out.mutable_data();
+        for (py::ssize_t i = 0; i < depths.size(); ++i)
+          o[i] = evaluateCurve(c.threshold_curve, in[i]);
+        return out;
+      },
+      py::arg("curve"), py::arg("depth"));
   m.def("default_threshold_curve", []() { return formatThresholdCurve(defaultThresholdCurve()); });
+
+  m.def("is_supported_depth_encoding", &isSupportedDepthEncoding, py::arg("encoding"),
+        "True for the depth encodings the pipeline reads: 8UC1, mono8, 16UC1, mono16, 32FC1.");
+  m.def(
+      "depth_from_buffer",
+      [](const std::string& encoding, std::uint32_t width, std::uint32_t height, std::uint32_t step,
+         bool is_bigendian, const py::buffer& data) {
+        const py::buffer_info info = data.request();
+        ImageBuffer image{encoding, width, height, step, is_bigendian, static_cast<const std::uint8_t*>(info.ptr),
+                          static_cast<std::size_t>(info.size * info.itemsize)};
+        if (info.ndim != 1 && info.size > 0)
+          throw py::value_error("data: expected a flat buffer of bytes");
+        cv::Mat buffer;
+        return matToArray(depthFromBuffer(image, buffer));
+      },
+      py::arg("encoding"), py::arg("width"), py::arg("height"), py::arg("step"), py::arg("is_bigendian"),
+      py::arg("data"),
+      "A depth image from a sensor_msgs/Image's fields (data: bytes or a uint8 array) as a new 2-D array: uint8 "
+      "for 8UC1/mono8, uint16 for 16UC1/mono16 (mm), float32 for 32FC1 (m), in the host's byte order. ValueError "
+      "for another encoding, empty data, a step below width * pixel size or data shorter than step * height, "
+      "quoting the values (the ROS node's checks).");
+  m.def(
+      "camera_from_intrinsics",
+      [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id) {
+        std::array<double, 9> k{};
+        std::size_t n = 0;
+        for (const auto& v : K)
+        {
+          if (n == 9)
+            throw py::value_error("K: expected 9 values (row-major 3x3), got more");
+          k[n++] = py::cast<double>(v);
+        }
+        if (n != 9)
+          throw py::value_error("K: expected 9 values (row-major 3x3), got " + std::to_string(n));
+        return cameraFromIntrinsics(width, height, k, frame_id);
+      },
+      py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "",
+      "The camera of a sensor_msgs/CameraInfo's width, height and K (fx = K[0], fy = K[4], cx = K[2], cy = K[5]); "
+      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values (the ROS node's checks).");
 
   m.def(
       "render_scene",
