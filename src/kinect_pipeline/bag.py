@@ -15,12 +15,14 @@ from typing import Any
 import numpy as np
 
 from . import _core, kinect_v2_camera
+from .bags import BagWriter, output_format
 from .demo import SegwayMotion, progress
 from .metrics import ideal_scan
 from .outputs import atomic_new
 from .scenes import ENCODINGS, KEPT, Scene, lab_scene, render_frame, truth_labels
 
 AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
+_SUFFIX_FORMAT = {".mcap": "mcap", ".db3": "sqlite3"}  #: single-file rosbag2 bags
 
 
 @dataclass
@@ -81,6 +83,9 @@ def write_sequence_bag(
     roll: float = 0.0,
     ceiling_height: float = 2.0,
     tf_error: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    fmt: str | None = None,
+    info_after_image: bool = False,
+    extras: bool = True,
 ) -> dict[str, Any]:
     """Renders ``frames`` frames of a Segway driving in ``scene`` and writes depth, camera_info, tf and a LiDAR
     scan to a new bag at ``path`` (written to a temporary file, then renamed), with the ground truth of every
@@ -88,15 +93,16 @@ def write_sequence_bag(
     (``/ground_truth/scan``: nearest obstacle below the ``ceiling_height`` plane per beam). ``tof`` adds flying
     pixels and the Kinect's range limit; ``roll`` is the sensor's roll on its mount [rad]. ``tf_error`` (height [m],
     pitch [rad], roll [rad]) is added to the mounting the bag's tf states (a wrong URDF: the frames are rendered
-    at the true pose). Returns a summary."""
+    at the true pose). ``fmt``: ros1, sqlite3 or mcap (rosbag2; a ``.mcap`` name is a single file), by default what
+    the name says (ROS 1 unless it ends in .mcap or .db3); ``info_after_image`` writes each camera_info right after
+    its image (some drivers do); ``extras=False`` leaves out the LiDAR and the ground truth (a plain camera bag).
+    Returns a summary."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
     if frames < 1:
         raise ValueError(f"frames = {frames}: expected >= 1")
     if len(tf_error) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in tf_error):
         raise ValueError(f"tf_error = {tf_error!r}: expected three finite numbers (height [m], pitch, roll [rad])")
-    from rosbags.rosbag1 import Writer
-
     path = Path(path)
     if path.exists():
         raise FileExistsError(f"{path} exists: not overwriting it")
@@ -138,14 +144,17 @@ def write_sequence_bag(
     lidar_beams, lidar_min = 720, -math.pi * 0.75
     lidar_inc = 1.5 * math.pi / lidar_beams
     pitches: list[float] = []
-    with atomic_new(path) as tmp, Writer(tmp) as w:
-        c_img = w.add_connection(rig.image_topic, Image.__msgtype__, typestore=ts)
-        c_info = w.add_connection(rig.info_topic, CameraInfo.__msgtype__, typestore=ts)
-        c_tf = w.add_connection("/tf", TFMessage.__msgtype__, typestore=ts)
-        c_tfs = w.add_connection("/tf_static", TFMessage.__msgtype__, typestore=ts, latching=1)
-        c_lidar = w.add_connection(rig.lidar_topic, LaserScan.__msgtype__, typestore=ts)
-        c_gt_labels = w.add_connection("/ground_truth/labels", Image.__msgtype__, typestore=ts)
-        c_gt_scan = w.add_connection("/ground_truth/scan", LaserScan.__msgtype__, typestore=ts)
+    fmt = output_format(path, _SUFFIX_FORMAT.get(path.suffix.lower(), "ros1"), fmt)
+    single = path.suffix.lower() in _SUFFIX_FORMAT
+    with atomic_new(path) as tmp, BagWriter(tmp, fmt, single_file=single, name=path.name) as w:
+        c_img = w.add(rig.image_topic, Image.__msgtype__)
+        c_info = w.add(rig.info_topic, CameraInfo.__msgtype__)
+        c_tf = w.add("/tf", TFMessage.__msgtype__)
+        c_tfs = w.add("/tf_static", TFMessage.__msgtype__, latching=True)
+        if extras:
+            c_lidar = w.add(rig.lidar_topic, LaserScan.__msgtype__)
+            c_gt_labels = w.add("/ground_truth/labels", Image.__msgtype__)
+            c_gt_scan = w.add("/ground_truth/scan", LaserScan.__msgtype__)
         # The beams of the pipeline's default scan, for the ideal scan.
         probe = _core.Pipeline(cam, _core.Config()).process(np.zeros((cam.height, cam.width), np.uint16))
         t0 = start_s
@@ -164,7 +173,7 @@ def write_sequence_bag(
                 tf("base_footprint", "laser", t0, (0.2, 0.0, rig.lidar_height), (0.0, 0.0, 0.0, 1.0)),
             ]
         )
-        w.write(c_tfs, int(t0 * 1e9), ts.serialize_ros1(static, TFMessage.__msgtype__))
+        w.write(c_tfs, int(t0 * 1e9), w.encode_ros1(static, TFMessage.__msgtype__))
         for i in progress(range(frames), frames, "synth") if show_progress else range(frames):
             t = t0 + 0.05 + i / rate_hz
             ns = round(t * 1e9)
@@ -182,7 +191,7 @@ def write_sequence_bag(
             base = TFMessage(
                 transforms=[tf("base_footprint", "base_link", t, (0.0, 0.0, AXLE_HEIGHT), _quat_from_rpy(0.0, bp, 0.0))]
             )
-            w.write(c_tf, ns, ts.serialize_ros1(base, TFMessage.__msgtype__))
+            w.write(c_tf, ns, w.encode_ros1(base, TFMessage.__msgtype__))
             header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
             depth = np.ascontiguousarray(frame.depth)
             img = Image(
@@ -207,8 +216,11 @@ def write_sequence_bag(
                 binning_y=0,
                 roi=RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
             )
-            w.write(c_info, ns + 1, ts.serialize_ros1(info, CameraInfo.__msgtype__))
-            w.write(c_img, ns + 2, ts.serialize_ros1(img, Image.__msgtype__))
+            first, second = ((c_img, img), (c_info, info)) if info_after_image else ((c_info, info), (c_img, img))
+            for k, (c, msg) in enumerate((first, second)):
+                w.write(c, ns + 1 + k, w.encode_ros1(msg, c.msgtype))
+            if not extras:
+                continue
             lidar_boxes = [(b[0] - 0.2, b[1] - 0.2, *b[2:]) for b in scene.boxes]
             ranges = _core.render_lidar(lidar_boxes, rig.lidar_height, lidar_min, lidar_inc, lidar_beams, 30.0)
             scan = LaserScan(
@@ -223,7 +235,7 @@ def write_sequence_bag(
                 ranges=ranges,
                 intensities=np.zeros(0, np.float32),
             )
-            w.write(c_lidar, ns + 3, ts.serialize_ros1(scan, LaserScan.__msgtype__))
+            w.write(c_lidar, ns + 3, w.encode_ros1(scan, LaserScan.__msgtype__))
             labels = truth_labels(frame.truth, ceiling_height)
             gt_img = Image(
                 header=header,
@@ -234,7 +246,7 @@ def write_sequence_bag(
                 step=labels.shape[1],
                 data=labels.reshape(-1),
             )
-            w.write(c_gt_labels, ns + 4, ts.serialize_ros1(gt_img, Image.__msgtype__))
+            w.write(c_gt_labels, ns + 4, w.encode_ros1(gt_img, Image.__msgtype__))
             # The ideal scan is seen from the optical centre, as the pipeline's (x shifted by px).
             ideal = ideal_scan(frame.truth, probe.angle_min, probe.angle_increment, len(probe.ranges), labels == KEPT)
             gt_scan = LaserScan(
@@ -249,7 +261,7 @@ def write_sequence_bag(
                 ranges=ideal.astype(np.float32),
                 intensities=np.zeros(0, np.float32),
             )
-            w.write(c_gt_scan, ns + 5, ts.serialize_ros1(gt_scan, LaserScan.__msgtype__))
+            w.write(c_gt_scan, ns + 5, w.encode_ros1(gt_scan, LaserScan.__msgtype__))
     return {
         "path": str(path),
         "frames": frames,

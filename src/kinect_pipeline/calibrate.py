@@ -37,6 +37,17 @@ def frame_paths(items: list[Path]) -> list[Path]:
     return out
 
 
+def is_frames(items: list[Path]) -> bool:
+    """Whether ``items`` name depth frames (files with a frame suffix, or folders of them) rather than a bag."""
+    for item in items:
+        if item.is_dir():
+            if (item / "metadata.yaml").exists():
+                return False
+        elif item.suffix.lower() not in FRAME_SUFFIXES:
+            return False
+    return bool(items)
+
+
 def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) -> np.ndarray:
     """A depth frame as float32 metres (0 = unknown): 16-bit PNG/PGM (``depth_scale`` metres per unit, mm by
     default), 8-bit PNG (normalised with ``max_depth``), or .npy (float metres, uint16 mm, uint8 normalised)."""
@@ -251,53 +262,48 @@ def check_tf(
     """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
     stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
     check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion)."""
-    from .replay import ReplayOptions, _pick_topics, _stamp, camera_from_info, depth_frames, image_to_array, read_tf
+    from .bags import BagError, depth_frames, open_bag, pick_topics, read_tf, stamp
 
     if not isinstance(bag, (str, Path)):
         raise TypeError(f"bag: {type(bag).__name__}, expected a path")
-    opts = ReplayOptions(depth_topic=depth_topic, info_topic=info_topic, base_frame=base_frame)
-    reader = _open(Path(bag))
-    frames: list[dict[str, Any]] = []
+    tolerance = 0.1
     try:
-        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
+        reader = open_bag(Path(bag))
+    except BagError as exc:
+        raise CalibrationError(str(exc)) from exc
+    frames: list[dict[str, Any]] = []
+    problems: list[str] = []
+    try:
+        depth_topic, info_topic = pick_topics(list(reader.connections), depth_topic, info_topic)
         tf = read_tf(reader)
-        for img, info in depth_frames(reader, depth_topic, info_topic, "calibrate" if show_progress else None):
-            stamp = _stamp(img.header)
-            rec: dict[str, Any] = {"stamp": stamp, "found": False}
+        progress = "calibrate" if show_progress else None
+        for img, cam, depth in depth_frames(reader, depth_topic, info_topic, progress, problems):
+            at = stamp(img)
+            rec: dict[str, Any] = {"stamp": at, "found": False}
+            frames.append(rec)
             try:
-                q, t = tf.lookup(base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
+                q, t = tf.lookup(base_frame, img.header.frame_id, at, tolerance)
             except LookupError as exc:
                 rec["message"] = f"no tf: {exc}"
-                frames.append(rec)
                 continue
             h, p, r, _ = _core.pose_from_optical_transform((q, t), base_frame_height)
             rec.update(tf_height=h, tf_pitch=p, tf_roll=r)
-            cam = camera_from_info(info)
-            metres = depth_metres(image_to_array(img), 0.001, max_depth, depth_topic)
-            fit = dict(_core.calibrate_from_floor(metres, cam, max_tilt=max_tilt))
+            fit = dict(
+                _core.calibrate_from_floor(depth_metres(depth, 0.001, max_depth, depth_topic), cam, max_tilt=max_tilt)
+            )
             rec["floor_fraction"] = float(fit["floor_fraction"])
             if fit["found"]:
                 rec.update(found=True, floor_height=fit["height"], floor_pitch=fit["pitch"], floor_roll=fit["roll"])
                 rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch", "roll")})
             else:
                 rec["message"] = "no floor found"
-            frames.append(rec)
+    except BagError as exc:
+        raise CalibrationError(str(exc)) from exc
     finally:
         reader.close()
     if not frames:
-        raise CalibrationError(f"{bag}: no depth frame on {depth_topic} with a camera_info")
+        raise CalibrationError(f"{bag}: no frame of {depth_topic} could be used: {'; '.join(problems[:3])}")
     return TfCheck(str(bag), depth_topic, frames)
-
-
-def _open(bag: Path) -> Any:
-    from .replay import ReplayError, open_bag
-
-    if not bag.exists():
-        raise CalibrationError(f"{bag}: no such bag")
-    try:
-        return open_bag(bag)
-    except ReplayError as exc:
-        raise CalibrationError(str(exc)) from exc
 
 
 def describe_tf_check(check: TfCheck) -> str:

@@ -26,6 +26,12 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("input", help="bag with a depth image, its camera_info and tf: ROS 1 .bag, rosbag2 folder, .mcap")
     p.add_argument("-o", "--output", required=True, help="new bag: the input's messages plus the outputs")
+    p.add_argument(
+        "--format",
+        choices=["ros1", "sqlite3", "mcap"],
+        help="of the output: ROS 1, or rosbag2 with sqlite3 or mcap storage (default: the input's; messages are "
+        "converted between ROS 1 and ROS 2 definitions)",
+    )
     add_bag_topics(p)
     p.add_argument(
         "--pose-fallback",
@@ -65,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         base_frame_height=args.base_frame_height,
         pose_fallback=args.pose_fallback,
         skip_bad=args.skip_bad,
+        format=args.format,
         config=parse_params(args.param),
     )
     inp, out = Path(args.input), Path(args.output)

@@ -1,4 +1,4 @@
-"""kinect-pipeline report: pictures and an index.html for a bag."""
+"""kinect-pipeline report: pictures and an index.html for a bag or for depth frames."""
 
 from __future__ import annotations
 
@@ -7,27 +7,39 @@ import json
 from pathlib import Path
 
 from ..outputs import Named
-from ._common import ToolError, add_param, add_quiet, check, parse_params
+from ._common import ToolError, add_intrinsics, add_param, add_quiet, camera, check, frame_files, parse_params
 from .replay import add_bag_topics
 
 NAME = "report"
-HELP = "pictures and an index.html for a bag (frame, scan, LiDAR and ground truth where the bag has them, timing)"
+HELP = (
+    "pictures and an index.html for a bag or depth frames (frame, scan, LiDAR and ground truth where the bag has "
+    "them, confidence, timing)"
+)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("input", help="bag with a depth image, its camera_info and tf: ROS 1 .bag, rosbag2 folder, .mcap")
+    p.add_argument(
+        "input",
+        nargs="+",
+        help="a bag with a depth image, its camera_info and tf (ROS 1 .bag, rosbag2 folder, .mcap), or depth frames "
+        "and folders of them (as for calibrate; at --param sensor_height/sensor_pitch, else the pose calibrated "
+        "from their floor)",
+    )
     p.add_argument("-o", "--out", required=True, help="output folder, made if missing")
     add_bag_topics(p)
+    add_intrinsics(p, " (default: none; required with frames)")
+    p.add_argument("--depth-scale", type=float, default=0.001, help="with frames: metres per unit of 16-bit frames [m]")
     add_param(p)
     add_quiet(p)
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..calibrate import CalibrationError, is_frames, load_depth
     from ..replay import ReplayError, ReplayOptions
     from ..report import FILES, write_report
 
-    inp, out = Path(args.input), Path(args.out)
-    check([inp], [Named(out / f, "-o") for f in FILES], [Named(out, "-o")])
+    items, out = [Path(p) for p in args.input], Path(args.out)
+    check(items, [Named(out / f, "-o") for f in FILES], [Named(out, "-o")])
     opts = ReplayOptions(
         depth_topic=args.depth_topic,
         info_topic=args.info_topic,
@@ -35,9 +47,16 @@ def run(args: argparse.Namespace) -> int:
         base_frame_height=args.base_frame_height,
         config=parse_params(args.param),
     )
+    cam = None
+    if is_frames(items):
+        files = frame_files(args.input)
+        if not args.intrinsics:
+            raise ToolError("depth frames need --intrinsics FX FY CX CY")
+        h, w = load_depth(files[0], args.depth_scale).shape
+        cam = camera(args.intrinsics, w, h)
     try:
-        summary = write_report(inp, out, opts, show_progress=not args.quiet)
-    except ReplayError as exc:
+        summary = write_report(items, out, opts, show_progress=not args.quiet, camera=cam, depth_scale=args.depth_scale)
+    except (ReplayError, CalibrationError) as exc:
         raise ToolError(str(exc)) from exc
     print(json.dumps({k: v for k, v in summary.items() if k != "pictures"}, indent=1))
     print(f"report: {out / 'index.html'}")
