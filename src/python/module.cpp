@@ -19,6 +19,7 @@
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/synthetic.h"
 #include "kinect_pipeline/threshold_curve.h"
 #include "kinect_pipeline/visualize.h"
@@ -307,11 +308,23 @@ PYBIND11_MODULE(_core, m)
   py::class_<Config>(m, "Config", "Pipeline parameters; field names are the ROS parameter names (SI units).")
       .def(py::init([](const py::kwargs& kw) {
              Config c;
+             // sensor_model first: its fields are what the preset says, unless given explicitly.
+             if (kw.contains("sensor_model"))
+             {
+               std::vector<std::string> given;
+               for (const auto& item : kw)
+                 given.push_back(py::cast<std::string>(item.first));
+               applySensorModel(py::cast<std::string>(kw["sensor_model"]), c, given);
+             }
              for (const auto& item : kw)
-               setConfigField(c, py::cast<std::string>(item.first), item.second);
+               if (py::cast<std::string>(item.first) != "sensor_model")
+                 setConfigField(c, py::cast<std::string>(item.first), item.second);
              c.validate();
              return c;
-           }))
+           }),
+           "Config(**fields): the defaults with these fields changed (names as the ROS parameters); "
+           "sensor_model=NAME first applies that sensor's preset (threshold_curve, range_max, cliff_min_pixels), "
+           "which fields given explicitly override.")
       .def_readwrite("sensor_height", &Config::sensor_height)
       .def_readwrite("sensor_pitch", &Config::sensor_pitch)
       .def_readwrite("sensor_roll", &Config::sensor_roll)
@@ -565,6 +578,53 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("curve"), py::arg("depth"));
   m.def("default_threshold_curve", []() { return formatThresholdCurve(defaultThresholdCurve()); });
+
+  m.def(
+      "sensor_models", []() {
+        py::list out;
+        for (const SensorModel& sm : sensorModels())
+          out.append(sm.name);
+        return out;
+      },
+      "Names of the sensor presets (sensor_model), the default first.");
+  m.def(
+      "sensor_model",
+      [](const std::string& name) {
+        const SensorModel& sm = sensorModel(name);
+        py::dict d;
+        d["name"] = sm.name;
+        d["description"] = sm.description;
+        d["source"] = sm.source;
+        d["sigma0"] = sm.noise.sigma0;
+        d["quad"] = sm.noise.quad;
+        d["z0"] = sm.noise.z0;
+        d["step2"] = sm.noise.step2;
+        d["k"] = sm.noise.k;
+        d["steps"] = sm.noise.steps;
+        d["margin"] = sm.noise.margin;
+        d["threshold_curve"] = formatThresholdCurve(sm.thresholdCurve());
+        d["range_max"] = sm.range_max;
+        d["cliff_min_pixels"] = sm.cliffMinPixels();
+        d["camera"] = sm.camera;
+        d["driver"] = sm.driver;
+        d["camera_ns"] = sm.camera_ns;
+        d["image"] = sm.image;
+        const std::string ns = sm.camera_ns.empty() ? "" : "/" + sm.camera_ns;
+        d["depth_topic"] = ns + "/" + sm.image;
+        d["info_topic"] = ns + "/" + sm.image.substr(0, sm.image.rfind('/') + 1) + "camera_info";
+        return d;
+      },
+      py::arg("name"),
+      "A sensor preset as a dict: its noise model (sigma(z) = sigma0 + quad (z - z0)^2 [m], depth step step2 z^2, "
+      "t(z) = margin + k sigma + steps * step), threshold_curve, range_max [m], cliff_min_pixels, typical camera, "
+      "driver, camera_ns, image, depth_topic and info_topic. ValueError naming the valid names.");
+  m.def(
+      "sensor_sigma",
+      [](const std::string& name, const py::object& z) {
+        const NoiseModel noise = sensorModel(name).noise;
+        return py::vectorize([noise](double d) { return noise.sigma(d); })(z);
+      },
+      py::arg("name"), py::arg("z"), "The random depth error sigma(z) [m] of a sensor preset at depth z [m] (arrays too).");
 
   m.def("is_supported_depth_encoding", &isSupportedDepthEncoding, py::arg("encoding"),
         "True for the depth encodings the pipeline reads: 8UC1, mono8, 16UC1, mono16, 32FC1.");
