@@ -118,8 +118,12 @@ class Calibration:
         }
         if self.message:
             d["message"] = self.message
+        d["warnings"] = list(self.warnings)
         if self.found:
-            d["launch_args"] = f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} pose_source:=static"
+            d["launch_args"] = (
+                f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} sensor_roll:={self.roll:.5f} "
+                "pose_source:=static"
+            )
             d["yaml"] = {
                 "sensor_height": round(self.height, 4),
                 "sensor_pitch": round(self.pitch, 5),
@@ -210,7 +214,59 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         spread("pitch"),
         spread("roll"),
         per,
+        warnings=disagreement(good) + weak_fits(good),
     )
+
+
+#: How far the frames averaged may disagree before a warning, beyond their fits' own uncertainty (3 sigma):
+#: a robot standing still sees one pose; hand-held frames or a base that moved give several.
+DISAGREE = {"height": (0.01, "m", 1.0), "pitch": (math.radians(0.5), "deg", 180 / math.pi)}
+DISAGREE["roll"] = (math.radians(0.5), "deg", 180 / math.pi)
+
+
+def disagreement(good: list[dict[str, Any]]) -> list[str]:
+    """Warnings for pose terms whose frames disagree by more than DISAGREE and 3 sigma of their fits."""
+    out = []
+    for key, (limit, unit, k) in DISAGREE.items():
+        v = [r[key] for r in good]
+        if len(v) < 2:
+            continue
+        span, fit = max(v) - min(v), 3 * max(r[f"{key}_std"] for r in good)
+        if span > max(limit, fit):
+            fmt, fine = ("{:.3f}", "{:.4f}") if unit == "m" else ("{:.1f}", "{:.2f}")
+            out.append(
+                f"the {len(v)} frames disagree: {key} spans {fmt.format(k * min(v))}..{fmt.format(k * max(v))} "
+                f"{unit} (each fit is within {fine.format(k * fit / 3)} {unit}): was the sensor moving? the mean is "
+                "no frame's pose; calibrate from frames of the robot standing still"
+            )
+    return out
+
+
+#: A fit is weak with less floor than this fraction of the valid pixels, fewer floor pixels, or a looser plane.
+WEAK_FRACTION, WEAK_PIXELS, WEAK_RMS = 0.10, 2000, 0.03
+
+
+def weak_fits(good: list[dict[str, Any]]) -> list[str]:
+    """Warnings for frames whose floor is small, thin or far from flat."""
+    out = []
+    for r in good:
+        name = Path(str(r.get("file", "frame"))).name
+        why = []
+        if r["floor_fraction"] < WEAK_FRACTION:
+            why.append(f"the floor holds only {100 * r['floor_fraction']:.1f} % of the valid pixels (5 % needed)")
+        if r["floor_pixels"] < WEAK_PIXELS:
+            why.append(f"only {r['floor_pixels']} floor pixels")
+        if r["rms"] > WEAK_RMS:
+            why.append(f"its pixels lie {100 * r['rms']:.1f} cm (rms) off the fitted plane")
+        if r["height_std"] > 0.01 or max(r["pitch_std"], r["roll_std"]) > math.radians(0.5):
+            why.append(
+                "the fit is uncertain (height +- {:.3f} m, pitch +- {:.2f} deg, roll +- {:.2f} deg)".format(
+                    r["height_std"], math.degrees(r["pitch_std"]), math.degrees(r["roll_std"])
+                )
+            )
+        if why:
+            out.append(f"{name}: weak floor fit: {'; '.join(why)}: check the pose in the plot (--plot)")
+    return out
 
 
 # -- check of the tf-provided pose against the floor seen in each frame of a bag (moving base) --------------------

@@ -46,9 +46,10 @@ def add_param(p: argparse.ArgumentParser, what: str = "a core Config field") -> 
 
 
 def config_fields() -> list[str]:
+    """What --param takes: the Config fields, and sensor_model (a preset of some of them)."""
     from .. import _core
 
-    return list(_core.Config().to_dict())
+    return [*_core.Config().to_dict(), "sensor_model"]
 
 
 def parse_params(items: Iterable[str] | None) -> dict[str, Any]:
@@ -77,7 +78,42 @@ def parse_params(items: Iterable[str] | None) -> dict[str, Any]:
     return out
 
 
-# -- --intrinsics FX FY CX CY ---------------------------------------------------------------------------------------
+# -- --sensor-model NAME, --intrinsics FX FY CX CY -----------------------------------------------------------------
+
+
+def add_sensor_model(p: argparse.ArgumentParser, what: str) -> None:
+    from .. import _core
+
+    p.add_argument(
+        "--sensor-model",
+        choices=_core.sensor_models(),
+        help=f"the depth camera's preset: {what} (default: none: kinect_v2's curve, no intrinsics)",
+    )
+
+
+def with_sensor_model(config: dict[str, Any], name: str | None) -> dict[str, Any]:
+    """Config fields with --sensor-model NAME added (explicit --param fields still win over the preset's)."""
+    if name and "sensor_model" not in config:
+        return {**config, "sensor_model": name}
+    return config
+
+
+def frames_camera(args: argparse.Namespace, width: int, height: int) -> Any:
+    """The camera of frames: --intrinsics, else the --sensor-model preset's typical intrinsics at its size."""
+    from .. import _core
+
+    if args.intrinsics:
+        return camera(args.intrinsics, width, height)
+    name = getattr(args, "sensor_model", None)
+    if not name:
+        raise ToolError("depth frames need --intrinsics FX FY CX CY (or --sensor-model NAME for typical ones)")
+    cam = _core.sensor_model(name)["camera"]
+    if (cam.width, cam.height) != (width, height):
+        raise ToolError(
+            f"--sensor-model {name}: its typical intrinsics are for {cam.width}x{cam.height}, the frames are "
+            f"{width}x{height}: give --intrinsics FX FY CX CY"
+        )
+    return cam
 
 
 def add_intrinsics(p: argparse.ArgumentParser, extra: str = "") -> None:

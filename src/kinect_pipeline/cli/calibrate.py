@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_frames, add_intrinsics, camera, check, frame_files, named
+from ._common import ToolError, add_frames, add_intrinsics, add_sensor_model, check, frame_files, frames_camera, named
 from .replay import add_bag_topics
 
 NAME = "calibrate"
@@ -17,7 +17,8 @@ HELP = "sensor height, pitch and roll from frames of a flat floor; --bag: tf's p
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_frames(p, "frames of a flat floor, the robot standing still")
-    add_intrinsics(p, " (default: none; required with frames)")
+    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_sensor_model(p, "its typical intrinsics for frames without --intrinsics")
     p.add_argument(
         "--bag",
         help="instead of frames, a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is "
@@ -44,9 +45,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.bag:
         return _run_bag(args)
-    if not args.files or not args.intrinsics:
+    if not args.files or not (args.intrinsics or args.sensor_model):
         raise ToolError(
-            "give depth frames and --intrinsics FX FY CX CY, or --bag BAG to check its tf against the floor"
+            "give depth frames and --intrinsics FX FY CX CY (or --sensor-model NAME), or --bag BAG to check its tf "
+            "against the floor"
         )
     from ..calibrate import CalibrationError, calibrate, load_depth
 
@@ -55,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         frames = [(str(f), load_depth(f, args.depth_scale, args.max_depth)) for f in files]
         h, w = frames[0][1].shape
-        cam = camera(args.intrinsics, w, h)
+        cam = frames_camera(args, w, h)
         result = calibrate(frames, cam, max_tilt=math.radians(args.max_tilt))
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc

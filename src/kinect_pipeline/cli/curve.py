@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ._common import ToolError, add_frames, add_intrinsics, camera, check, frame_files, named
+from ._common import ToolError, add_frames, add_intrinsics, add_sensor_model, check, frame_files, frames_camera, named
 
 if TYPE_CHECKING:
     from ..curve import CurveFit
@@ -17,7 +17,8 @@ HELP = "threshold curve t(d) from floor frames (or a noise model) -> YAML, plot;
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_frames(p, "frames of a flat floor (as for calibrate)")
-    add_intrinsics(p, " (default: none; required with frames)")
+    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_sensor_model(p, "its typical intrinsics for frames without --intrinsics, and its curve as the current one")
     p.add_argument(
         "--rate",
         type=float,
@@ -59,11 +60,13 @@ def _fit(args: argparse.Namespace) -> CurveFit:
 
         print("fitted on 3 generated Kinect v2 floor frames (no frames given):")
         return fit_curve(generated_floor_frames(3), kinect_v2_camera(), args.rate, args.margin)
-    if not args.files or not args.intrinsics:
-        raise ToolError("give floor frames and --intrinsics, or --from-model SIGMA0 K, or --compare")
+    if not args.files or not (args.intrinsics or args.sensor_model):
+        raise ToolError(
+            "give floor frames and --intrinsics (or --sensor-model), or --from-model SIGMA0 K, or --compare"
+        )
     frames = [(str(f), load_depth(f, args.depth_scale)) for f in frame_files(args.files)]
     h, w = frames[0][1].shape
-    return fit_curve(frames, camera(args.intrinsics, w, h), args.rate, args.margin)
+    return fit_curve(frames, frames_camera(args, w, h), args.rate, args.margin)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -82,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
         write_yaml(fit, Path(args.output))
         print(f"YAML: {args.output}")
     if args.plot:
-        plot(fit, _core.Config().threshold_curve, Path(args.plot))
+        current = _core.Config(**({"sensor_model": args.sensor_model} if args.sensor_model else {}))
+        plot(fit, current.threshold_curve, Path(args.plot))
         print(f"plot: {args.plot}")
     if args.compare:
         _compare(args, fit)

@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_param, add_quiet, check, named, parse_params
+from ._common import ToolError, add_param, add_quiet, add_sensor_model, check, named, parse_params, with_sensor_model
 
 NAME = "replay"
 HELP = "run the pipeline over a bag at the pose its tf gives; write the scans and the cleaned image to a new bag"
@@ -57,6 +57,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         help="stop after this many depth frames: a complete, shorter bag [frames] (default: all)",
     )
+    add_sensor_model(p, "its threshold curve, range and cliff pixels")
     add_param(p)
     add_quiet(p)
 
@@ -72,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
         pose_fallback=args.pose_fallback,
         skip_bad=args.skip_bad,
         format=args.format,
-        config=parse_params(args.param),
+        config=with_sensor_model(parse_params(args.param), args.sensor_model),
     )
     inp, out = Path(args.input), Path(args.output)
     check([inp], [named("-o", args.output)])

@@ -7,7 +7,18 @@ import json
 from pathlib import Path
 
 from ..outputs import Named
-from ._common import ToolError, add_intrinsics, add_param, add_quiet, camera, check, frame_files, parse_params
+from ._common import (
+    ToolError,
+    add_intrinsics,
+    add_param,
+    add_quiet,
+    add_sensor_model,
+    check,
+    frame_files,
+    frames_camera,
+    parse_params,
+    with_sensor_model,
+)
 from .replay import add_bag_topics
 
 NAME = "report"
@@ -27,7 +38,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("-o", "--out", required=True, help="output folder, made if missing")
     add_bag_topics(p)
-    add_intrinsics(p, " (default: none; required with frames)")
+    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_sensor_model(p, "its threshold curve, range and cliff pixels (and typical intrinsics for frames)")
     p.add_argument("--depth-scale", type=float, default=0.001, help="with frames: metres per unit of 16-bit frames [m]")
     add_param(p)
     add_quiet(p)
@@ -45,15 +57,13 @@ def run(args: argparse.Namespace) -> int:
         info_topic=args.info_topic,
         base_frame=args.base_frame,
         base_frame_height=args.base_frame_height,
-        config=parse_params(args.param),
+        config=with_sensor_model(parse_params(args.param), args.sensor_model),
     )
     cam = None
     if is_frames(items):
         files = frame_files(args.input)
-        if not args.intrinsics:
-            raise ToolError("depth frames need --intrinsics FX FY CX CY")
         h, w = load_depth(files[0], args.depth_scale).shape
-        cam = camera(args.intrinsics, w, h)
+        cam = frames_camera(args, w, h)
     try:
         summary = write_report(items, out, opts, show_progress=not args.quiet, camera=cam, depth_scale=args.depth_scale)
     except (ReplayError, CalibrationError) as exc:
