@@ -86,6 +86,7 @@ def write_sequence_bag(
     fmt: str | None = None,
     info_after_image: bool = False,
     extras: bool = True,
+    compressed: bool = False,
 ) -> dict[str, Any]:
     """Renders ``frames`` frames of a Segway driving in ``scene`` and writes depth, camera_info, tf and a LiDAR
     scan to a new bag at ``path`` (written to a temporary file, then renamed), with the ground truth of every
@@ -95,12 +96,15 @@ def write_sequence_bag(
     pitch [rad], roll [rad]) is added to the mounting the bag's tf states (a wrong URDF: the frames are rendered
     at the true pose). ``fmt``: ros1, sqlite3 or mcap (rosbag2; a ``.mcap`` name is a single file), by default what
     the name says (ROS 1 unless it ends in .mcap or .db3); ``info_after_image`` writes each camera_info right after
-    its image (some drivers do); ``extras=False`` leaves out the LiDAR and the ground truth (a plain camera bag).
+    its image (some drivers do); ``extras=False`` leaves out the LiDAR and the ground truth (a plain camera bag);
+    ``compressed`` writes the depth as ``<image topic>/compressedDepth`` (the core's PNG encoder; 16UC1 / 32FC1).
     Returns a summary."""
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
     if frames < 1:
         raise ValueError(f"frames = {frames}: expected >= 1")
+    if compressed and encoding == "8UC1":
+        raise ValueError("compressedDepth carries 16UC1 or 32FC1 depth, not 8UC1")
     if len(tf_error) != 3 or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in tf_error):
         raise ValueError(f"tf_error = {tf_error!r}: expected three finite numbers (height [m], pitch, roll [rad])")
     path = Path(path)
@@ -147,7 +151,11 @@ def write_sequence_bag(
     fmt = output_format(path, _SUFFIX_FORMAT.get(path.suffix.lower(), "ros1"), fmt)
     single = path.suffix.lower() in _SUFFIX_FORMAT
     with atomic_new(path) as tmp, BagWriter(tmp, fmt, single_file=single, name=path.name) as w:
-        c_img = w.add(rig.image_topic, Image.__msgtype__)
+        c_img = (
+            w.add(rig.image_topic + "/compressedDepth", "sensor_msgs/msg/CompressedImage")
+            if compressed
+            else w.add(rig.image_topic, Image.__msgtype__)
+        )
         c_info = w.add(rig.info_topic, CameraInfo.__msgtype__)
         c_tf = w.add("/tf", TFMessage.__msgtype__)
         c_tfs = w.add("/tf_static", TFMessage.__msgtype__, latching=True)
@@ -203,6 +211,11 @@ def write_sequence_bag(
                 step=depth.strides[0],
                 data=depth.view(np.uint8).reshape(-1),
             )
+            if compressed:
+                fmt_text, payload = _core.encode_compressed_depth(depth)
+                img = T["sensor_msgs/msg/CompressedImage"](
+                    header=header, format=fmt_text, data=np.frombuffer(payload, np.uint8)
+                )
             info = CameraInfo(
                 header=header,
                 height=cam.height,
@@ -266,7 +279,7 @@ def write_sequence_bag(
         "path": str(path),
         "frames": frames,
         "encoding": encoding,
-        "image_topic": rig.image_topic,
+        "image_topic": rig.image_topic + ("/compressedDepth" if compressed else ""),
         "base_pitch_deg_range": [math.degrees(min(pitches)), math.degrees(max(pitches))],
         "tf_error": {
             "height": tf_error[0],

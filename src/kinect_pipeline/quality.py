@@ -337,3 +337,17 @@ def default_config_table(frames: int, height: float, pitch: float, encodings: li
             f"| {np.nanmin(a[:, 2]):.4f} | {np.nanmax(a[:, 3]):.4f} |"
         )
     return "\n".join(lines)
+
+
+def bag_quality(bag: Any, opts: Any = None, show_progress: bool = False) -> dict[str, Any]:
+    """The replay of a bag with the generator's ground truth (``/ground_truth/scan``, ``/ground_truth/labels``)
+    scored against it, as ``report``'s quality.json: phantom and missed beams (fractions of all beams) and the
+    labels' agreement. A bag without ground truth raises ReplayError."""
+    from .replay import ReplayError, ReplayOptions
+    from .report import GT_SCAN, collect, truth_quality
+
+    c = collect(bag, opts or ReplayOptions(), show_progress)
+    q = truth_quality(c)
+    if not q:
+        raise ReplayError(f"{bag}: no ground truth ({GT_SCAN}) in the bag to score against")
+    return {"frames": len(c.frames), **q}

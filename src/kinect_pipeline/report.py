@@ -258,7 +258,7 @@ def _write(out_dir: Path, c: Collected) -> dict[str, Any]:
         pictures.append(_confidence_panel(out_dir, c))
         pictures.append(_timing_panel(out_dir, c))
     summary = _summary(c)
-    quality = _quality(c)
+    quality = truth_quality(c)
     if quality:
         summary.update(quality)
         write_text(out_dir / "quality.json", json.dumps(summary, indent=1))
@@ -369,7 +369,7 @@ def _summary(c: Collected) -> dict[str, Any]:
     }
 
 
-def _quality(c: Collected) -> dict[str, Any]:
+def truth_quality(c: Collected) -> dict[str, Any]:
     """Against the generator's ground truth, where the bag has it: the goal's phantom beams (> 5 cm + 4 sigma short,
     as quality.json of the demo and `quality`), the plain 5 cm count (a far wall's noise fills it), missed beams
     and the labels' agreement."""
