@@ -1,6 +1,8 @@
 // pybind11 binding of the ROS-free core: kinect_pipeline._core.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -173,6 +175,105 @@ std::string describeTerms(const std::string& name, double h, double p, double r)
   return s.str();
 }
 
+/** The Config fields' docstrings (units and ranges as config.h and the .cfg state them). */
+const std::pair<const char*, const char*> kConfigDocs[] = {
+    {"sensor_height", "Height of the optical centre above the floor [m], > 0 (default 1.1)"},
+    {"sensor_pitch", "Static tilt of the sensor on the base [rad], + looks down (default 0)"},
+    {"sensor_roll", "Static roll of the sensor on the base [rad], + right side down (default 0)"},
+    {"ceiling_height", "Height of the ceiling plane above the floor [m], > sensor_height (default 2)"},
+    {"max_depth", "Depth of 8-bit value 255 [m] for 8-bit normalised input (default 12)"},
+    {"geometry", "Plane prediction: 'exact' (pinhole ray/plane, default) or 'thesis' (eq 4.10-4.18)"},
+    {"projection", "Pixel to beam: 'horizontal' (range in the gravity-aligned frame, default) or 'column'"},
+    {"open_kernel_size", "Opening kernel size [px]: 0 or 1 = off, odd 3..31 (default 3)"},
+    {"open_kernel_shape", "Opening kernel shape: 'rect' (default), 'cross' or 'ellipse'"},
+    {"threshold_curve", "t(d) control points [(depth m, threshold m), ...], or 'd:t, ...' text; depths increasing, "
+                        "thresholds non-decreasing (default: the Kinect v2 curve)"},
+    {"range_min", "Shorter beams are reported as -Inf (REP 117) [m] (default 0.1)"},
+    {"range_max", "Longer beams are reported as +Inf [m], > range_min (default 10)"},
+    {"scan_beams", "Number of beams [-]; 0 = the image width (default)"},
+    {"scan_fov", "Angular width of the scan [rad], centred on forward; 0 = the camera's (default)"},
+    {"surface_band", "Beam range: 0 = nearest kept pixel (default); > 0 = mean of the beam's ranges within "
+                     "surface_band * t(r) of its nearest [-], 0..10"},
+    {"cliff_scan", "Fill Result.cliff_ranges: nearest below-floor pixel per beam (default True)"},
+    {"cliff_in_scan", "Also put below-floor beams into the scan as obstacles (default False)"},
+    {"cliff_min_pixels", "Below-floor pixels a beam needs before it reports a cliff [px], >= 1 (default 3)"},
+    {"confidence_window", "Ranges in each beam's rolling mean, this one included [frames] (default 5)"},
+    {"confidence_distance", "d_threshold of eq 4.23: distance from the mean at which intensity is 0 [m] (default 0.3)"},
+    {"min_intensity", "Intensity at or below which a filtered beam becomes NaN [-], 0..1 (default 0.2)"},
+    {"intensity_filter", "NaN the finite beams with intensity <= min_intensity (default False)"},
+    {"refine_floor", "Correct the pose from the frame's own floor before predicting the planes (default True)"},
+    {"floor_max_height_error", "Largest correction of the sensor height by the floor fit [m] (default 0.08)"},
+    {"floor_max_pitch_error", "Largest correction of the pitch by the floor fit [rad] (default 0.035)"},
+    {"floor_max_roll_error", "Largest correction of the roll by the floor fit [rad] (default 0.035)"},
+    {"floor_min_pixels", "Fewest image pixels on the fitted floor to accept the fit [px] (default 4000)"},
+    {"floor_learn_time", "Time constant of the learned floor correction [s]; 0 = learn nothing (default 2)"},
+    {"num_threads", "OpenMP threads for one frame [-]; 0 = OpenMP's default (default 0)"},
+};
+
+/** Depth in float32 is metres: an image whose valid pixels have a median above this is plainly millimetres. */
+constexpr float kMillimetreMedian = 100.0f;
+
+/** @throw py::value_error for a float32 depth image that is plainly millimetres (median of its valid pixels,
+ *  on a subsample, above kMillimetreMedian). */
+void refuseMillimetreFloats(const cv::Mat& m)
+{
+  if (m.type() != CV_32FC1)
+    return;
+  std::vector<float> v;
+  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(m.total()) / 4096.0)));
+  for (int r = 0; r < m.rows; r += step)
+  {
+    const float* row = m.ptr<float>(r);
+    for (int u = 0; u < m.cols; u += step)
+      if (row[u] > 0.0f && std::isfinite(row[u]))
+        v.push_back(row[u]);
+  }
+  if (v.empty())
+    return;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  const float median = v[v.size() / 2];
+  if (median > kMillimetreMedian)
+  {
+    std::ostringstream s;
+    s << "depth: float32 with a median of " << median << " over its valid pixels: that is millimetres, not metres "
+      << "(a float32 depth image is in metres: divide it by 1000, or pass the uint16 millimetres as they are)";
+    throw py::value_error(s.str());
+  }
+}
+
+std::string describeResult(const PyResult& r)
+{
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  const auto shape = r.depth.request().shape;
+  const py::array_t<float>& ranges = r.ranges;
+  const float* a = ranges.data();
+  int finite = 0;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (py::ssize_t i = 0; i < ranges.size(); ++i)
+    if (std::isfinite(a[i]))
+    {
+      ++finite;
+      nearest = std::min(nearest, a[i]);
+    }
+  int cliffs = 0;
+  for (py::ssize_t i = 0; i < r.cliff_ranges.size(); ++i)
+    cliffs += std::isfinite(r.cliff_ranges.data()[i]) ? 1 : 0;
+  double total = 0.0;
+  for (const auto& item : r.counts)
+    total += py::cast<double>(item.second);
+  s << "Result(" << shape[1] << "x" << shape[0] << " " << std::string(py::str(r.depth.dtype())) << ", "
+    << ranges.size() << " beams: " << finite << " finite";
+  if (finite)
+    s << std::setprecision(2) << ", nearest " << nearest << " m";
+  s << ", " << cliffs << " cliff; pixels";
+  for (const auto& item : r.counts)
+    s << " " << std::string(py::str(item.first)) << " " << std::setprecision(1)
+      << (total > 0 ? 100.0 * py::cast<double>(item.second) / total : 0.0) << " %";
+  s << "; " << std::setprecision(3) << py::cast<double>(r.times["total"]) << " ms)";
+  return s.str();
+}
+
 const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
 
 template <typename F>
@@ -180,6 +281,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
 {
   py::object keep;
   cv::Mat in = asMat(depth, "depth", keep);
+  refuseMillimetreFloats(in);
   PyResult res;
   // Outputs are fresh numpy arrays; the core writes straight into them.
   py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
@@ -390,6 +492,11 @@ PYBIND11_MODULE(_core, m)
         return s + ")";
       });
 
+  {
+    const py::object fields = m.attr("Config").attr("__dict__");
+    for (const auto& [name, doc] : kConfigDocs)
+      fields[name].attr("__doc__") = doc;
+  }
   py::class_<SensorPose>(m, "SensorPose",
                          "The sensor's pose relative to the floor: height [m], pitch [rad, + looks down], roll [rad, + "
                          "right side down]. Unpacks as (height, pitch, roll).")
@@ -454,7 +561,8 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
       .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
       .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
-      .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)");
+      .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)")
+      .def("__repr__", &describeResult);
 
   py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
       .def(py::init<const Camera&, const Config&>(), py::arg("camera"), py::arg("config"))
