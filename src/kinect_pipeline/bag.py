@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from . import _core, kinect_v2_camera
-from .bags import BagWriter, output_format
+from .bags import BagWriter, image_message, output_format
 from .demo import SegwayMotion, progress
 from .metrics import ideal_scan
 from .outputs import atomic_new
@@ -202,15 +202,7 @@ def write_sequence_bag(
             w.write(c_tf, ns, w.encode_ros1(base, TFMessage.__msgtype__))
             header = Header(seq=i, stamp=stamp(t), frame_id=rig.optical_frame)
             depth = np.ascontiguousarray(frame.depth)
-            img = Image(
-                header=header,
-                height=depth.shape[0],
-                width=depth.shape[1],
-                encoding=encoding,
-                is_bigendian=0,
-                step=depth.strides[0],
-                data=depth.view(np.uint8).reshape(-1),
-            )
+            img = image_message(T, header, depth, encoding)
             if compressed:
                 fmt_text, payload = _core.encode_compressed_depth(depth)
                 img = T["sensor_msgs/msg/CompressedImage"](

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import bisect
 import dataclasses
+import sys
 from collections import defaultdict
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -221,6 +222,20 @@ def header(types: Any, stamp_msg: Any, frame_id: str, seq: int = 0) -> Any:
     if "seq" in fields:
         kw["seq"] = seq
     return Header(**kw)
+
+
+def image_message(types: Any, header_msg: Any, depth: np.ndarray, encoding: str) -> Any:
+    """A sensor_msgs/Image of a 2-D array (host byte order) with this header and encoding."""
+    depth = np.ascontiguousarray(depth)
+    return types[IMAGE](
+        header=header_msg,
+        height=depth.shape[0],
+        width=depth.shape[1],
+        encoding=encoding,
+        is_bigendian=int(sys.byteorder == "big"),
+        step=depth.strides[0],
+        data=depth.view(np.uint8).reshape(-1),
+    )
 
 
 # -- topics ---------------------------------------------------------------------------------------------------

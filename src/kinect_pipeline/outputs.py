@@ -96,6 +96,17 @@ def _translate(exc: BaseException, tmp: Path, path: Path) -> OutputError:
     return OutputError(f"cannot write {path}: {str(exc).replace(str(tmp), str(path))}")
 
 
+@contextmanager
+def _as_users(tmp: Path, path: Path) -> Iterator[None]:
+    """Errors of writing the temporary ``tmp`` (OSError, or any naming it) raised as OutputError naming ``path``."""
+    try:
+        yield
+    except Exception as exc:
+        if isinstance(exc, OSError) or str(tmp) in str(exc):
+            raise _translate(exc, tmp, path) from exc
+        raise
+
+
 def temporary_name(path: Path, tag: str = "tmp") -> Path:
     """A hidden name beside ``path`` for writing it (unique per process)."""
     return path.with_name(f".{path.name}.{tag}-{os.getpid()}")
@@ -114,12 +125,9 @@ def atomic_file(path: PathLike, keep_suffix: bool = True) -> Iterator[Path]:
     os.close(fd)
     tmp = Path(name)
     try:
-        yield tmp
-        os.replace(tmp, path)
-    except Exception as exc:
-        if isinstance(exc, OSError) or str(tmp) in str(exc):
-            raise _translate(exc, tmp, path) from exc
-        raise
+        with _as_users(tmp, path):
+            yield tmp
+            os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -133,14 +141,11 @@ def atomic_new(path: PathLike) -> Iterator[Path]:
     tmp = temporary_name(path)
     shutil.rmtree(tmp, ignore_errors=True)
     try:
-        yield tmp
-        if path.exists():
-            raise OutputError(f"{path} appeared while it was written: not replacing it")
-        os.replace(tmp, path)
-    except Exception as exc:
-        if isinstance(exc, OSError) or str(tmp) in str(exc):
-            raise _translate(exc, tmp, path) from exc
-        raise
+        with _as_users(tmp, path):
+            yield tmp
+            if path.exists():
+                raise OutputError(f"{path} appeared while it was written: not replacing it")
+            os.replace(tmp, path)
     finally:
         if tmp.is_dir():
             shutil.rmtree(tmp, ignore_errors=True)

@@ -28,6 +28,7 @@ from .bags import (
     camera_from_info,
     depth_array,
     header,
+    image_message,
     image_topic_of,
     open_bag,
     output_format,
@@ -585,17 +586,8 @@ def _outputs(T: Any, img: Any, res: Any, frame: str, r: ReplayReport, pipe: Any)
     out = [scan(res.ranges, res.intensities)]
     if r.cliff_topic:
         out.append(scan(res.cliff_ranges, np.zeros(0, np.float32)))
-    depth = np.ascontiguousarray(res.depth)
-    encoding = getattr(img, "encoding", None) or {1: "8UC1", 2: "16UC1", 4: "32FC1"}[depth.itemsize]
-    clean = T[IMAGE](
-        header=header(T, img.header.stamp, img.header.frame_id, seq),
-        height=depth.shape[0],
-        width=depth.shape[1],
-        encoding=encoding,
-        is_bigendian=0,
-        step=depth.strides[0],
-        data=depth.view(np.uint8).reshape(-1),
-    )
+    encoding = getattr(img, "encoding", None) or {1: "8UC1", 2: "16UC1", 4: "32FC1"}[res.depth.itemsize]
+    clean = image_message(T, header(T, img.header.stamp, img.header.frame_id, seq), res.depth, encoding)
     out.append((clean, IMAGE))
     out.append((T[STRING](data=_floor_record(res, pipe)), STRING))
     return out

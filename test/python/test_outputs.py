@@ -5,14 +5,12 @@ from __future__ import annotations
 
 import hashlib
 import os
-import resource
-import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from clitool import cli
 
 import kinect_pipeline as kp
 from kinect_pipeline.outputs import OutputError, atomic_file, atomic_new, check_outputs, output_folder
@@ -23,22 +21,6 @@ pytest.importorskip("rosbags")
 REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"
 CAM = kp.kinect_v2_camera()
 INTR = [str(CAM.fx), str(CAM.fy), str(CAM.cx), str(CAM.cy)]
-
-
-def cli(*args: str, cwd: Path | None = None, fsize: int | None = None) -> subprocess.CompletedProcess[str]:
-    def limit() -> None:
-        if fsize is not None:
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead
-            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
-
-    return subprocess.run(
-        [sys.executable, "-m", "kinect_pipeline.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=cwd,
-        preexec_fn=limit,
-    )
 
 
 def sha(path: Path) -> str:

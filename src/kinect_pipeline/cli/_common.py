@@ -141,20 +141,24 @@ def camera(intrinsics: list[float], width: int, height: int) -> Any:
 # -- depth frames ---------------------------------------------------------------------------------------------------
 
 
-def add_frames(p: argparse.ArgumentParser, what: str) -> None:
-    p.add_argument(
-        "files",
-        nargs="*",
-        metavar="FRAME",
-        help=f"{what}: depth frames or folders of them (16-bit PNG/PGM in mm unless --depth-scale, 8-bit PNG "
-        "normalised by --max-depth, .npy float metres)",
-    )
+def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positional: bool = True) -> None:
+    """The frames (positional ``files``, unless given otherwise), --depth-scale, --intrinsics and --sensor-model."""
+    if positional:
+        p.add_argument(
+            "files",
+            nargs="*",
+            metavar="FRAME",
+            help=f"{what}: depth frames or folders of them (16-bit PNG/PGM in mm unless --depth-scale, 8-bit PNG "
+            "normalised by --max-depth, .npy float metres)",
+        )
     p.add_argument(
         "--depth-scale",
         type=float,
         default=0.001,
         help="metres per unit of 16-bit frames [m] (TUM and slambook2 ch7: 0.0002)",
     )
+    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_sensor_model(p, sensor_use)
 
 
 def frame_files(items: Iterable[str]) -> list[Path]:

@@ -8,8 +8,8 @@ NAME = "bench-ros"
 HELP = "image->scan latency and CPU: node, nodelet, bare image_transport relay (own roscore)"
 
 
-def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frames", type=int, default=300, help="frames per subject [frames]")
+def add_rate_and_threads(p: argparse.ArgumentParser) -> None:
+    """--rate and --threads of the runs through a roscore (bench-ros, soak)."""
     p.add_argument("--rate", type=float, default=30.0, help="frames per second [Hz]")
     p.add_argument(
         "--threads",
@@ -17,6 +17,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=1,
         help="the pipeline's num_threads [threads] (default: 1, as the node's; 0: OpenMP's default)",
     )
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--frames", type=int, default=300, help="frames per subject [frames]")
+    add_rate_and_threads(p)
     p.add_argument(
         "--sequential",
         action="store_true",

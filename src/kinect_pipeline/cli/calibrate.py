@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_frames, add_intrinsics, add_sensor_model, check, frame_files, frames_camera, named
+from ._common import ToolError, add_frames, check, frame_files, frames_camera, named
 from .replay import add_bag_topics
 
 NAME = "calibrate"
@@ -16,9 +16,7 @@ HELP = "sensor height, pitch and roll from frames of a flat floor; --bag: tf's p
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_frames(p, "frames of a flat floor, the robot standing still")
-    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
-    add_sensor_model(p, "its typical intrinsics for frames without --intrinsics")
+    add_frames(p, "frames of a flat floor, the robot standing still", "its typical intrinsics for frames")
     p.add_argument(
         "--bag",
         help="instead of frames, a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is "

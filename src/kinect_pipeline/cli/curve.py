@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ._common import ToolError, add_frames, add_intrinsics, add_sensor_model, check, frame_files, frames_camera, named
+from ._common import ToolError, add_frames, check, frame_files, frames_camera, named
 
 if TYPE_CHECKING:
     from ..curve import CurveFit
@@ -16,9 +16,9 @@ HELP = "threshold curve t(d) from floor frames (or a noise model) -> YAML, plot;
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    add_frames(p, "frames of a flat floor (as for calibrate)")
-    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
-    add_sensor_model(p, "its typical intrinsics for frames without --intrinsics, and its curve as the current one")
+    add_frames(
+        p, "frames of a flat floor (as for calibrate)", "typical intrinsics for frames, its curve as the current"
+    )
     p.add_argument(
         "--rate",
         type=float,

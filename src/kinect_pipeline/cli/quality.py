@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_param, add_quiet, parse_params
+from ._common import ToolError, add_param, add_quiet
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
@@ -51,15 +51,10 @@ def _run_bag(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..quality import bag_quality
-    from ..replay import ReplayError, ReplayOptions
+    from ..replay import ReplayError
+    from .replay import bag_options
 
-    opts = ReplayOptions(
-        depth_topic=args.depth_topic,
-        info_topic=args.info_topic,
-        base_frame=args.base_frame,
-        base_frame_height=args.base_frame_height,
-        config=parse_params(args.param),
-    )
+    opts = bag_options(args)
     try:
         q = bag_quality(Path(args.bag), opts, show_progress=not args.quiet)
     except ReplayError as exc:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from ._common import ToolError, add_param, add_quiet, add_sensor_model, check, named, parse_params, with_sensor_model
 
@@ -21,6 +22,21 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     p.add_argument("--info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)")
     p.add_argument("--base-frame", default="base_footprint", help="gravity-aligned tf frame on the floor")
     p.add_argument("--base-frame-height", type=float, default=0.0, help="its origin's height above the floor [m]")
+
+
+def bag_options(args: argparse.Namespace, **more: object) -> Any:
+    """ReplayOptions of the options add_bag_topics, --param and --sensor-model gave."""
+    from ..replay import ReplayOptions
+
+    config = with_sensor_model(parse_params(args.param), getattr(args, "sensor_model", None))
+    return ReplayOptions(
+        depth_topic=args.depth_topic,
+        info_topic=args.info_topic,
+        base_frame=args.base_frame,
+        base_frame_height=args.base_frame_height,
+        config=config,
+        **more,  # type: ignore[arg-type]
+    )
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -63,18 +79,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..replay import ReplayError, ReplayOptions, format_report, partial_path, replay
+    from ..replay import ReplayError, format_report, partial_path, replay
 
-    opts = ReplayOptions(
-        depth_topic=args.depth_topic,
-        info_topic=args.info_topic,
-        base_frame=args.base_frame,
-        base_frame_height=args.base_frame_height,
-        pose_fallback=args.pose_fallback,
-        skip_bad=args.skip_bad,
-        format=args.format,
-        config=with_sensor_model(parse_params(args.param), args.sensor_model),
-    )
+    opts = bag_options(args, pose_fallback=args.pose_fallback, skip_bad=args.skip_bad, format=args.format)
     inp, out = Path(args.input), Path(args.output)
     check([inp], [named("-o", args.output)])
     try:

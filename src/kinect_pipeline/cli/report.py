@@ -7,19 +7,8 @@ import json
 from pathlib import Path
 
 from ..outputs import Named
-from ._common import (
-    ToolError,
-    add_intrinsics,
-    add_param,
-    add_quiet,
-    add_sensor_model,
-    check,
-    frame_files,
-    frames_camera,
-    parse_params,
-    with_sensor_model,
-)
-from .replay import add_bag_topics
+from ._common import ToolError, add_frames, add_param, add_quiet, check, frame_files, frames_camera
+from .replay import add_bag_topics, bag_options
 
 NAME = "report"
 HELP = (
@@ -38,27 +27,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("-o", "--out", required=True, help="output folder, made if missing")
     add_bag_topics(p)
-    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
-    add_sensor_model(p, "its threshold curve, range and cliff pixels (and typical intrinsics for frames)")
-    p.add_argument("--depth-scale", type=float, default=0.001, help="with frames: metres per unit of 16-bit frames [m]")
+    add_frames(p, "", "its threshold curve, range and cliff pixels (and typical intrinsics for frames)", False)
     add_param(p)
     add_quiet(p)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..calibrate import CalibrationError, is_frames, load_depth
-    from ..replay import ReplayError, ReplayOptions
+    from ..replay import ReplayError
     from ..report import FILES, write_report
 
     items, out = [Path(p) for p in args.input], Path(args.out)
     check(items, [Named(out / f, "-o") for f in FILES], [Named(out, "-o")])
-    opts = ReplayOptions(
-        depth_topic=args.depth_topic,
-        info_topic=args.info_topic,
-        base_frame=args.base_frame,
-        base_frame_height=args.base_frame_height,
-        config=with_sensor_model(parse_params(args.param), args.sensor_model),
-    )
+    opts = bag_options(args)
     cam = None
     if is_frames(items):
         files = frame_files(args.input)

@@ -4,16 +4,15 @@ from __future__ import annotations
 
 import argparse
 
+from .bench_ros import add_rate_and_threads
+
 NAME = "soak"
 HELP = "long run through a real roscore: drops, latency, memory at start and end"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--minutes", type=float, default=10.0, help="how long [min]")
-    p.add_argument("--rate", type=float, default=30.0, help="frames per second [Hz]")
-    p.add_argument(
-        "--threads", type=int, default=1, help="the pipeline's num_threads [threads] (default: 1, as the node's)"
-    )
+    add_rate_and_threads(p)
     p.add_argument("--subject", choices=["node", "nodelet"], default="nodelet", help="what runs the pipeline")
 
 
