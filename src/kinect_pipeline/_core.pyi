@@ -140,6 +140,7 @@ class Result:
 
 class Pipeline:
     config: Config
+    floor_state: tuple[float, float, float, float | None]
     def __init__(self, camera: Camera, config: Config) -> None: ...
     def process(
         self, depth: npt.ArrayLike, base_pitch: float = 0.0, base_roll: float = 0.0, stamp: float | None = None
