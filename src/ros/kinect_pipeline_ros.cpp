@@ -77,6 +77,7 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   // First what may stop the node, before anything runs: every bad parameter at once, and the transport.
   for (const std::string& w : unknownParameterWarnings(pnh_))
     ROS_WARN("%s: %s", name_.c_str(), w.c_str());
+  applySensorModelParameters(pnh_, name_);  // the preset's values are then checked as if the user had set them
   startupSettings(pnh_, name_);
   const std::string transport = checkTransport();
 

@@ -8,6 +8,7 @@
 #include <boost/any.hpp>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/threshold_curve.h"
 
 namespace kinect_pipeline
@@ -270,11 +271,43 @@ NodeSettings startupSettings(const ros::NodeHandle& pnh, const std::string& node
   throw StartupError(m.str());
 }
 
+void applySensorModelParameters(const ros::NodeHandle& pnh, const std::string& node_name)
+{
+  std::string name;
+  if (!pnh.getParam("sensor_model", name) || name.empty())
+    return;
+  Config preset;
+  try
+  {
+    applySensorModel(name, preset);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw StartupError(node_name + ": not starting: ~" + e.what());
+  }
+  std::string set;
+  for (const std::string& field : sensorModelFields())
+  {
+    if (pnh.hasParam(field))
+      continue;
+    if (field == "threshold_curve")
+      pnh.setParam(field, formatThresholdCurve(preset.threshold_curve));
+    else if (field == "range_max")
+      pnh.setParam(field, preset.range_max);
+    else if (field == "cliff_min_pixels")
+      pnh.setParam(field, preset.cliff_min_pixels);
+    set += (set.empty() ? "" : ", ") + field;
+  }
+  ROS_INFO("%s: sensor_model %s (%s): %s from the preset", node_name.c_str(), name.c_str(),
+           sensorModel(name).description.c_str(), set.empty() ? "nothing" : set.c_str());
+}
+
 const std::vector<std::string>& extraParameterNames()
 {
-  // image_transport: the input transport; diagnostic_period: diagnostic_updater's; startup_error: where the nodelet
-  // leaves why it did not start, for the launch file's loader to print.
-  static const std::vector<std::string> names{"image_transport", "diagnostic_period", "startup_error"};
+  // image_transport: the input transport; sensor_model: the preset, read once at start; diagnostic_period:
+  // diagnostic_updater's; startup_error: where the nodelet leaves why it did not start, for the launch file's loader.
+  static const std::vector<std::string> names{"image_transport", "sensor_model", "diagnostic_period",
+                                              "startup_error"};
   return names;
 }
 

@@ -195,6 +195,8 @@ REAL_FRAMES = [
     ("tum_nyu_sun_open3d/TUM_depth.png", 5000.0, (525.0, 525.0, 319.5, 239.5)),
     ("tum_nyu_sun_open3d/NYU_depth_mm.png", 1000.0, (582.6, 582.7, 313.0, 238.4)),
     ("tum_nyu_sun_open3d/SUN_depth_mm.png", 1000.0, (525.0, 525.0, 319.5, 239.5)),
+    ("slambook2/ch7/1_depth.png", 5000.0, (520.9, 521.0, 325.1, 249.7)),
+    ("slambook2/ch7/2_depth.png", 5000.0, (520.9, 521.0, 325.1, 249.7)),
 ] + [(f"slambook2/ch5/rgbd/depth/{i}.pgm", 1000.0, (518.0, 519.0, 325.5, 253.5)) for i in (1, 2, 3, 5)]
 # Frame 4: the fitted pose lies 0.06 deg / 0.11 deg from calibrate's (its floor beyond 4 m, where calibrate still
 # fits and the refinement does not, bends away from the plane nearer): 163 floor pixels 4-5.5 m away at the margin

@@ -62,6 +62,14 @@ std::vector<std::string> serverParameterProblems(const ros::NodeHandle& pnh, Kin
  */
 NodeSettings startupSettings(const ros::NodeHandle& pnh, const std::string& node_name);
 
+/**
+ * @brief ~sensor_model: the preset's fields onto the parameter server where they are not set there (an explicit
+ *        threshold_curve, range_max or cliff_min_pixels wins), before the startup check and the reconfigure server
+ *        read them.
+ * @throw StartupError for an unknown preset, naming the valid ones
+ */
+void applySensorModelParameters(const ros::NodeHandle& pnh, const std::string& node_name);
+
 /** Private parameters the node reads besides those of the .cfg. */
 const std::vector<std::string>& extraParameterNames();
 
