@@ -1,4 +1,5 @@
 // KinectPipelineRos: what /diagnostics says, and the node's --help.
+#include <chrono>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -43,6 +44,14 @@ void KinectPipelineRos::diagnoseRate(diagnostic_updater::DiagnosticStatusWrapper
   {
     // use_sim_time and no /clock yet: no rate can be measured (the window starts with the first clock).
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "waiting for /clock (use_sim_time is true)");
+    return;
+  }
+  // Right after the window restarted, before the next frame, there is nothing to judge yet (not "No events").
+  const auto since = std::chrono::steady_clock::now().time_since_epoch().count() - rate_restarted_at_.load();
+  if (rate_restarted_at_.load() != 0 && ticks_since_rate_restart_.load() == 0 &&
+      std::chrono::steady_clock::duration(since) < std::chrono::seconds(2))
+  {
+    stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "rate window restarted (the clock or the stamps jumped)");
     return;
   }
   input_freq_.run(stat);

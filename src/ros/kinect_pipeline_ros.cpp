@@ -254,7 +254,7 @@ std::uint64_t KinectPipelineRos::checkClock()
     // The first clock (with use_sim_time, /clock may start after the node): the rate window starts here, not
     // at time 0, which would report "Frequency too low" until the window had rolled over.
     clock_seen_ = true;
-    input_freq_.clear();
+    restartRate();
   }
   else if (clock_seen_ && now < last_clock_)
   {
@@ -263,7 +263,7 @@ std::uint64_t KinectPipelineRos::checkClock()
       std::lock_guard<std::mutex> stats(stats_mutex_);
       ++clock_resets_;
     }
-    input_freq_.clear();
+    restartRate();
     ROS_WARN("%s: ROS time moved backwards, from %.3f to %.3f s (a bag played again with --clock, a simulation "
              "restarted): starting over (stamps, pose, confidence, rate window, learned floor correction)",
              name_.c_str(), last_clock_.toSec(), now.toSec());
@@ -271,6 +271,13 @@ std::uint64_t KinectPipelineRos::checkClock()
   }
   last_clock_ = now;
   return clock_epoch_;
+}
+
+void KinectPipelineRos::restartRate()
+{
+  input_freq_.clear();
+  ticks_since_rate_restart_ = 0;
+  rate_restarted_at_ = std::chrono::steady_clock::now().time_since_epoch().count();
 }
 
 void KinectPipelineRos::restart(const std::string& why)
@@ -281,7 +288,7 @@ void KinectPipelineRos::restart(const std::string& why)
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stamp_resets_;
     }
-    input_freq_.clear();
+    restartRate();
     ROS_WARN("%s: %s: starting over (confidence, rate window, learned floor correction, last pose)", name_.c_str(),
              why.c_str());
   }
@@ -322,12 +329,14 @@ void KinectPipelineRos::compressedCb(const sensor_msgs::CompressedImageConstPtr&
 
 void KinectPipelineRos::arrive(const Input& in)
 {
+  // The clock first: a rate window it restarts must count this frame.
+  const std::uint64_t epoch = checkClock();
   ++frames_in_;
   input_freq_.tick();
+  ++ticks_since_rate_restart_;
   exchange_.take(active_);  // settings change between frames only, and whole
   if (!active_)
     return;
-  const std::uint64_t epoch = checkClock();
   if (epoch != clock_epoch_seen_)
   {
     // ROS time jumped back (warned by checkClock()): the stamps start over with it, as tf2's buffer does.

@@ -132,6 +132,8 @@ private:
   void dropPending();
   /** The history starts over (a jump back of the stamps or the clock): one warning when @p why is not empty. */
   void restart(const std::string& why);
+  /** The input rate's window starts now (the first clock, a jump back). */
+  void restartRate();
   /** Follows ROS time (frame callback and diagnostics timer): @return the number of jumps back so far. */
   std::uint64_t checkClock();
   /** After a master restart: the parameters in force back onto the (new) parameter server. */
@@ -202,6 +204,8 @@ private:
   ros::WallTimer diagnostics_timer_;  // diagnostics keep coming when every frame is dropped, whatever ROS time does
   double min_freq_ = 1.0, max_freq_ = 60.0;
   diagnostic_updater::FrequencyStatus input_freq_;
+  std::atomic<std::uint64_t> ticks_since_rate_restart_{0};
+  std::atomic<std::int64_t> rate_restarted_at_{0};  // steady clock ticks; 0: never
   std::mutex stats_mutex_;
   std::atomic<std::uint64_t> frames_in_{0}, frames_out_{0};
   std::array<std::uint64_t, static_cast<int>(DropReason::kCount)> drops_{};
