@@ -26,8 +26,12 @@ for i in $(seq "$ROUNDS"); do
   for d in "$@"; do
     bench=$BENCH
     [ -x "$d/kinect_pipeline_bench" ] && bench=$d/kinect_pipeline_bench
-    LD_LIBRARY_PATH=$d "$bench" --frames "$FRAMES" --threads "$THR" --encodings "$ENC" |
-      awk -v d="$d" '$1 ~ /^(8UC1|16UC1|32FC1)$/ {print d, $8, $9}'
+    # The markdown table's columns by their names (the plain table's position of a column moves when one is added).
+    LD_LIBRARY_PATH=$d "$bench" --frames "$FRAMES" --threads "$THR" --encodings "$ENC" --markdown |
+      awk -F' *[|] *' -v d="$d" '
+        $2 == "encoding" { for (i = 1; i <= NF; i++) { if ($i == "frame [ms]") f = i; if ($i == "frame / memcpy") x = i } }
+        $2 ~ /^(8UC1|16UC1|32FC1)$/ { if (!f || !x) { print "alternate.sh: no frame columns in the bench output" > "/dev/stderr"; exit 1 }
+                                      print d, $f, $x }'
   done
 done | /usr/bin/python3 -c '
 import collections, statistics, sys

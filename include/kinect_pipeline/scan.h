@@ -116,7 +116,9 @@ bool setVectorPaths(bool on);
  * Maps pixels to beams: a pixel goes to the bin of its centre's bearing, and the bins between two neighbouring
  * centres of a row go to the nearer one, so the binning leaves no bin empty that a surface covers, whatever the
  * pitch. The horizontal projection finds each bin's pixels from the bin's borders (spanPixels()); the column
- * projection, and rows where that does not hold, bin the centres by their bearings (spanBins()). The column edges' bearings (rowEdgeBins()) bound what the image sees.
+ * projection, and rows where that does not hold, bin the centres by their bearings (spanBins()).
+ * The column edges' bearings (rowEdgeBins(), rowCoverage()) bound what the image sees. The binning of a frame's rows
+ * with these methods is the core's (src/core/scan_binning.cpp, docs/core_design.md).
  *
  * Horizontal projection: the ray of pixel (u, r) in the gravity-aligned frame is
  * (X, Y) = (ax * xn + bx(r), ay * xn + by(r)) per metre of depth; its beam angle is atan2(Y, X) and its range
@@ -149,6 +151,11 @@ public:
    */
   void coverage(float& lo, float& hi) const;
   /**
+   * @brief Widens [lo, hi] to the fractional bin positions of the outer edges of row r's first and last pixels
+   *        (coverage() is this over every row, from lo = +Inf, hi = -Inf).
+   */
+  void rowCoverage(int r, float& lo, float& hi) const;
+  /**
    * @brief The pixels of each bin, for the span a..b of row r (horizontal projection): the same bins as
    *        spanBins gives the centres, up to float rounding at a bin's border, found from the bins' side instead.
    *
@@ -177,18 +184,16 @@ public:
    */
   template <typename T>
   void spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;
-
-private:
-  friend class Pipeline;  ///< bins only the kept part of each row, and tracks bins from row to row
-
-  /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
-  void edgeBins(int r, int e0, int e1, float* out) const;
   /**
    * @brief For pixels u0..u1 of row r, in one pass: fb = fractional bin positions of their centres, key = their
    *        bins (binKey), range = depth * range per metre of depth (horizontal: hypot(X, Y); column:
    *        1 / cos(theta_x)); +Inf depth stays +Inf.
    */
   void spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key, float* range) const;
+
+private:
+  /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
+  void edgeBins(int r, int e0, int e1, float* out) const;
 
   Projection projection_ = Projection::kHorizontal;
   int width_ = 0, height_ = 0, beams_ = 0;

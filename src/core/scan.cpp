@@ -505,105 +505,30 @@ bool detail::setVectorPaths(bool on)
   return was;
 }
 
-void ScanProjector::coverage(float& lo, float& hi) const
+void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
 {
   if (projection_ == Projection::kColumn)
   {
-    lo = std::min(col_edge_bins_.front(), col_edge_bins_.back());
-    hi = std::max(col_edge_bins_.front(), col_edge_bins_.back());
+    lo = std::min({lo, col_edge_bins_.front(), col_edge_bins_.back()});
+    hi = std::max({hi, col_edge_bins_.front(), col_edge_bins_.back()});
     return;
   }
+  const float inv = 1.0f / inc_;
+  for (const float x : {xe_.front(), xe_.back()})
+  {
+    const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
+    lo = std::min(lo, f);
+    hi = std::max(hi, f);
+  }
+}
+
+void ScanProjector::coverage(float& lo, float& hi) const
+{
   lo = std::numeric_limits<float>::infinity();
   hi = -lo;
-  const float inv = 1.0f / inc_;
-  for (int r = 0; r < height_; ++r)
-  {
-    for (const float x : {xe_.front(), xe_.back()})
-    {
-      const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
-      lo = std::min(lo, f);
-      hi = std::max(hi, f);
-    }
-  }
-}
-
-void Confidence::configure(int beams, const Config& config)
-{
-  const int window = config.confidence_window;
-  if (beams != beams_ || window != window_)
-  {
-    beams_ = beams;
-    window_ = window;
-    history_.assign(static_cast<std::size_t>(beams_) * window_, std::numeric_limits<float>::quiet_NaN());
-    sum_.assign(beams_, 0.0f);
-    count_.assign(beams_, 0);
-    head_ = 0;
-  }
-  distance_ = static_cast<float>(config.confidence_distance);
-  min_intensity_ = static_cast<float>(config.min_intensity);
-  filter_ = config.intensity_filter;
-}
-
-void Confidence::reset()
-{
-  std::fill(history_.begin(), history_.end(), std::numeric_limits<float>::quiet_NaN());
-  head_ = 0;
-}
-
-namespace
-{
-// Confidence::apply's sums over the window, beam by beam in the order of the window's slots (k outer, so that the
-// loop runs over beams in whole vectors), NaN slots left out.
-KP_CLONES void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
-                          std::int32_t* __restrict n)
-{
-  for (int b = 0; b < beams; ++b)
-  {
-    sum[b] = 0.0f;
-    n[b] = 0;
-  }
-  for (int k = 0; k < window; ++k)
-  {
-    const float* h = history + static_cast<std::size_t>(k) * beams;
-    for (int b = 0; b < beams; ++b)
-    {
-      const bool ok = h[b] == h[b];  // not NaN
-      sum[b] += ok ? h[b] : 0.0f;    // the history holds ranges > 0: adding +0 changes nothing
-      n[b] += ok;
-    }
-  }
-}
-
-// Intensity of each beam from its window's mean (see Confidence), NaN for filtered beams. Selects, no branches.
-KP_CLONES void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
-                             int beams, float distance, float min_intensity, bool filter, float* __restrict out)
-{
-  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  for (int b = 0; b < beams; ++b)
-  {
-    const float d = ranges[b];
-    const bool is_nan = d != d, is_inf = d == inf || d == -inf;
-    const float mean = sum[b] / static_cast<float>(n[b] > 0 ? n[b] : 1);  // n >= 1 where d is finite
-    float i = 1.0f - std::fabs(d - mean) / distance;
-    i = 0.0f < i ? i : 0.0f;  // std::min(1, std::max(0, i)), operand for operand
-    i = i < 1.0f ? i : 1.0f;
-    const float value = is_nan ? 0.0f : (is_inf ? 1.0f : i);
-    out[b] = value;
-    ranges[b] = (filter && !is_nan && !is_inf && value <= min_intensity) ? nan : d;
-  }
-}
-}  // namespace
-
-void Confidence::apply(std::vector<float>& ranges, std::vector<float>& intensities)
-{
-  intensities.resize(ranges.size());
-  float* slot = history_.data() + static_cast<std::size_t>(head_) * beams_;
-  for (int b = 0; b < beams_; ++b)
-    slot[b] = std::isfinite(ranges[b]) ? ranges[b] : std::numeric_limits<float>::quiet_NaN();
-  head_ = (head_ + 1) % window_;
-  windowSums(history_.data(), beams_, window_, sum_.data(), count_.data());
-  intensityLoop(ranges.data(), sum_.data(), count_.data(), beams_, distance_, min_intensity_, filter_,
-                intensities.data());
+  // The column projection's edges do not depend on the row.
+  for (int r = 0; r < (projection_ == Projection::kColumn ? 1 : height_); ++r)
+    rowCoverage(r, lo, hi);
 }
 
 }  // namespace kinect_pipeline

@@ -14,7 +14,9 @@
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/synthetic.h"
 #include "kinect_pipeline/threshold_curve.h"
+#include "plane_rule.h"      // private to the core (src/core): the rule, the rescue's move
 #include "test_util.h"
+#include "value_labeller.h"  // private to the core: rescueMove
 
 using namespace kinect_pipeline;
 using kp_test::kInf;
@@ -632,17 +634,20 @@ TEST(PipelineEdge, RescueSkipsOnlyPixelsItWouldNotRelabel)
         const bool eight = enc == Encoding::kMono8;
         const float s = eight ? static_cast<float>(max_depth / 255.0) : 0.001f;
         const int none = eight ? 255 : 65535, stride = eight ? 1 : 997;
+        const detail::PlaneRule rule{s, 1.0f, 1.0f};  // moved() needs the scale only
         for (int t1 = 2; t1 < none; t1 += stride)
         {
-          const int k = detail::rescueMove(table[t1], 1.0f / s, none);
+          const int k = detail::rescueMove(detail::PlaneRule::moveBand(table[t1]), 1.0f / s, none);
           ASSERT_GE(k, 1);
           skipping += k > 1;
           for (int raw = t1; raw < std::min(none, t1 + 3000); raw += eight ? 1 : 7)
             for (int v = std::max(1, raw - k + 1); v < raw; ++v)
             {
-              const float moved = static_cast<float>(raw) * s - static_cast<float>(v) * s;
-              ASSERT_FALSE(moved > table[raw]) << toString(enc) << " max_depth " << max_depth << " t1 " << t1
-                                               << " raw " << raw << " v " << v << " k " << k;
+              // The rescue's own test, on the value types it gets them in.
+              const float moved = eight ? rule.moved<std::uint8_t>(raw, v) : rule.moved<std::uint16_t>(raw, v);
+              ASSERT_FALSE(moved > detail::PlaneRule::moveBand(table[raw]))
+                  << toString(enc) << " max_depth " << max_depth << " t1 " << t1 << " raw " << raw << " v " << v
+                  << " k " << k;
             }
         }
       }
