@@ -110,6 +110,11 @@ bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t*
  * same bits. For tests: not to be changed while frames are processed. @return the previous setting
  */
 bool setVectorPaths(bool on);
+/**
+ * Whether the hand-written AVX-512 paths can run here: the library was built with them (GCC on x86-64) and the CPU
+ * has AVX-512 F, BW, DQ and VL. Where not, setVectorPaths changes nothing and the portable loops always run.
+ */
+bool vectorPathsAvailable();
 }  // namespace detail
 
 /**

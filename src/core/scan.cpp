@@ -505,6 +505,8 @@ bool detail::setVectorPaths(bool on)
   return was;
 }
 
+bool detail::vectorPathsAvailable() { return vectorPathsSupported(); }
+
 void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
 {
   if (projection_ == Projection::kColumn)

@@ -29,17 +29,20 @@ namespace detail
 /** detail::setVectorPaths (scan.h): whether the hand-written AVX-512 paths may run (tests turn them off). */
 inline bool g_vector_paths = true;
 
-/** Whether the CPU has the AVX-512 subsets the hand-written paths use and they are on. */
-inline bool vectorPaths()
+/** Whether the library has the hand-written AVX-512 paths and the CPU the AVX-512 subsets they use. */
+inline bool vectorPathsSupported()
 {
 #if defined(KP_AVX512_PATHS)
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return has && g_vector_paths;
+  return has;
 #else
   return false;
 #endif
 }
+
+/** Whether the hand-written AVX-512 paths run: supported, and on. */
+inline bool vectorPaths() { return vectorPathsSupported() && g_vector_paths; }
 }  // namespace detail
 
 /**
