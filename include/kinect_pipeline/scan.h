@@ -171,8 +171,9 @@ public:
    * neighbouring centres (narrower than a pixel) gets the centre nearest to its middle, lo[j] = hi[j]; its middle
    * is taken halfway between the two crossings. Both are clipped to a..b (lo[j] > hi[j]: nothing of the span).
    * @return the number of bins n (0: the span reaches no bin), or -1 where this does not hold: the column
-   *         projection, a row whose line passes (nearly) under the sensor, or bearings that leave the forward
-   *         half-plane; the caller then bins the centres by their bearings (spanBins).
+   *         projection, a row whose line passes (nearly) under the sensor, bearings that leave the forward
+   *         half-plane, or a span whose bearings pass the direction straight behind the sensor (a row that looks
+   *         behind it: the scan's two ends); the caller then bins the centres by their bearings (spanBins).
    */
   int spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const;
   /** @brief spanPixels' checks and bins without the pixels: @return n as spanPixels, and the plan where n > 0. */

@@ -413,9 +413,24 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   if (projection_ != Projection::kHorizontal)
     return -1;
   const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
-  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor.
-  if (!(std::fabs(bx * ay - by * ax) > 1e-4f))
+  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor: by its distance
+  // from it (at least |bx ay - by ax|, as |(ax, ay)| <= 1) in pixels, D, a bin without a centre takes the centre
+  // nearest to the middle of its borders' crossings in columns instead of in bearings, at most 1 / (4 D^2 inc)
+  // bins off (the bearing's curvature over a pixel): a twentieth of a bin at most (D >= 46 pixels for 512 beams
+  // over 70.6 degrees: a Kinect v2's rows are all farther up to a pitch of 0.94 rad, 100 pixels or more at 0.8).
+  const float cross = std::fabs(bx * ay - by * ax), far = cross * fx_;
+  if (!(cross > 1e-4f) || !(far * far * inc_ >= 5.0f))
     return -1;
+  // A span whose bearings pass the direction straight behind the sensor (Y = 0 with X < 0: only rows that look
+  // behind it, looking steeply down) runs from one end of the bin positions to the other: its bins are not the one
+  // run k0..k1 between its ends' bins.
+  const float x0 = (static_cast<float>(a - 1) - cx_) * inv_fx_, x1 = (static_cast<float>(b + 1) - cx_) * inv_fx_;
+  if (ay != 0.0f)
+  {
+    const float behind = -by / ay;  // xn where Y = 0
+    if (behind >= x0 && behind <= x1 && ax * behind + bx < 0.0f)
+      return -1;
+  }
   // Bins of the centres either side of the span (the pixels a - 1 and b + 1, seen as +Inf), found with a coarse
   // atan, and coarse_margin_ more each side: one for the rounding at a border, the rest for the atan's error.
   // More bins than needed only add bins without a pixel of the span.
@@ -423,7 +438,7 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   float f[2];
   for (int i = 0; i < 2; ++i)
   {
-    const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) * inv_fx_;
+    const float xn = i == 0 ? x0 : x1;
     f[i] = (coarseAtan2(ay * xn + by, ax * xn + bx) - lo_) * inv;
   }
   const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - coarse_margin_);

@@ -28,12 +28,14 @@ struct Case
   double pitch, roll;
   int kernel;
   Projection projection;
+  double scan_fov = 0.0;
 };
 
 std::string name(const Case& c)
 {
   return cv::typeToString(c.type) + "_" + c.scene + "_pitch" + std::to_string(std::lround(c.pitch * 1000)) +
-         (c.roll != 0.0 ? "_roll" : "") + "_k" + std::to_string(c.kernel) + "_" + toString(c.projection);
+         (c.roll != 0.0 ? "_roll" : "") + "_k" + std::to_string(c.kernel) + "_" + toString(c.projection) +
+         (c.scan_fov > 0.0 ? "_all_round" : "");
 }
 
 void PrintTo(const Case& c, std::ostream* os) { *os << name(c); }
@@ -45,10 +47,12 @@ const cv::Mat& metres(const Camera& cam, const std::string& scene, double pitch,
   cv::Mat& m = cache[{scene, pitch, roll}];
   if (m.empty())
   {
-    const Scene s = scene == "lab"     ? kp_test::labScene()
-                    : scene == "boxes" ? kp_test::boxesScene()
-                    : scene == "hole"  ? kp_test::holeScene()
-                                       : kp_test::stairScene();
+    Scene s = scene == "lab"     ? kp_test::labScene()
+              : scene == "boxes" ? kp_test::boxesScene()
+              : scene == "hole"  ? kp_test::holeScene()
+                                 : kp_test::stairScene();
+    if (scene == "around")  // boxes beside and behind the sensor's foot, seen looking steeply down
+      s.boxes = {{-0.9, -0.5, -0.5, 0.4, 0.0, 0.5}, {0.2, 0.5, -0.9, -0.6, 0.0, 0.3}, {-0.3, 0.1, 0.5, 0.8, 0.0, 0.8}};
     Rendering gt;
     renderScene(cam, 1.1, pitch, roll, s, gt);
     m = gt.depth.clone();
@@ -126,6 +130,7 @@ TEST_P(FastVsReference, SameBitsButForTheBinningsBorders)
   cfg.projection = c.projection;
   cfg.refine_floor = false;
   cfg.cliff_scan = true;
+  cfg.scan_fov = c.scan_fov;
   const cv::Mat frame = encodeDepth(metres(cam, c.scene, c.pitch, c.roll), c.type, cfg.max_depth);
   const FrameResult fast = processWith(cam, cfg, frame, c, {});
   // The labelling by value and the opening's row kernels against the rule pixel by pixel and OpenCV's opening:
@@ -166,6 +171,11 @@ std::vector<Case> cases()
         for (const int kernel : {0, 3, 5})
           for (const Projection p : {Projection::kHorizontal, Projection::kColumn})
             out.push_back({type, scene, pitch, roll, kernel, p});
+  // Looking steeply down with a scan all round: the lowest rows look behind the sensor, where bearings grow with
+  // the column (the crossings' other direction).
+  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+    for (const auto& [pitch, roll] : {std::pair{1.3, 0.0}, {1.45, 0.03}})
+      out.push_back({type, "around", pitch, roll, 3, Projection::kHorizontal, 2.0 * M_PI});
   return out;
 }
 

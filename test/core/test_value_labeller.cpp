@@ -127,12 +127,13 @@ TEST(ValueLabelling, GivesTheRulesLabelsWhereverItTakesARow)
         if (HasFatalFailure())
           return;
       }
-  // Both ways are taken: most rows by value, and some not (the steep curve's, a ceiling plane below the sensor).
+  // Both ways are taken: many rows by value (28392 and 19044 of 34560 when this was written), and some not (the
+  // steep curve's, a ceiling plane below the sensor).
   RecordProperty("rows_8bit", std::to_string(t8.by_value) + " of " + std::to_string(t8.rows) + " by value");
   RecordProperty("rows_16bit", std::to_string(t16.by_value) + " of " + std::to_string(t16.rows) + " by value");
   for (const Tally& t : {t8, t16})
   {
-    EXPECT_GT(t.by_value, t.rows / 2) << "of " << t.rows << " rows";
+    EXPECT_GT(t.by_value, t.rows / 4) << "of " << t.rows << " rows";
     EXPECT_LT(t.by_value, t.rows) << "of " << t.rows << " rows";
   }
 }
