@@ -1,3 +1,5 @@
+// ScanProjector (scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border crossings.
+// Design notes: docs/core_design.md ("The scan").
 #include "kinect_pipeline/scan.h"
 
 #include "simd.h"
