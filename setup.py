@@ -2,4 +2,10 @@
 from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import setup
 
-setup(**generate_distutils_setup(packages=["kinect_pipeline"], package_dir={"": "src"}))
+setup(
+    **generate_distutils_setup(
+        packages=["kinect_pipeline", "kinect_pipeline.cli"],
+        package_dir={"": "src"},
+        package_data={"kinect_pipeline": ["py.typed", "_core.pyi"]},
+    )
+)

@@ -44,6 +44,49 @@ bool planeFrom3(const Pt& a, const Pt& b, const Pt& c, Plane& out)
 }
 
 double band(double z) { return 3.0 * kinectSigma(z) + 0.01; }
+
+double signedDistance(const Plane& p, const Pt& q) { return p.n[0] * q.x + p.n[1] * q.y + p.n[2] * q.z + p.d; }
+
+struct Hyp
+{
+  Plane p;
+  int support = 0;
+  double score = -1.0;
+};
+
+/** MSAC over planes through three of the points @p from, facing up within max_tilt, at a plausible height: inliers
+ *  count by how well they fit (1 - (e / band)^2), so a plane that only grazes many points in their wide far bands
+ *  loses to one that fits its points tightly. */
+Hyp bestPlane(const std::vector<Pt>& pts, const std::vector<std::size_t>& from, const CalibrationOptions& o,
+              std::mt19937_64& rng)
+{
+  const double cos_tilt = std::cos(o.max_tilt);
+  Hyp best;
+  if (from.size() < 3)
+    return best;
+  std::uniform_int_distribution<std::size_t> draw(0, from.size() - 1);
+  for (int it = 0; it < o.iterations; ++it)
+  {
+    Plane p;
+    if (!planeFrom3(pts[from[draw(rng)]], pts[from[draw(rng)]], pts[from[draw(rng)]], p))
+      continue;
+    if (-p.n[1] < cos_tilt || p.d < o.min_height || p.d > o.max_height)  // up is (0, -1, 0) in the image
+      continue;
+    Hyp h{p, 0, 0.0};
+    for (std::size_t i : from)
+    {
+      const double e = std::fabs(signedDistance(p, pts[i])) / band(pts[i].z);
+      if (e < 1.0)
+      {
+        h.score += 1.0 - e * e;
+        ++h.support;
+      }
+    }
+    if (h.score > best.score)
+      best = h;
+  }
+  return best;
+}
 }  // namespace
 
 void pitchRollFromUp(const double n[3], double& pitch, double& roll)
@@ -81,10 +124,10 @@ bool floorLike(const Plane& p, const CalibrationOptions& o)
 }
 
 /**
- * MSAC over planes through three points of a subsample of the nearer points (their noise is small: far points
- * would support tilted planes), within the floor's limits. @return false where no plane has enough support, else
- * the floor: the lowest of the planes nearly parallel to the best one with a good share of its support (a table top
- * is parallel to the floor and holds more pixels at times).
+ * The floor among the planes of bestPlane over a subsample of the nearer points (their noise is small: far points
+ * would support tilted planes). @return false where no plane has enough support, else the floor: the lowest such
+ * plane, not the one holding the most pixels (a desk often does): the search goes on among the points below the
+ * plane found, as long as a plane there holds at least min_fraction of them all.
  */
 bool searchFloor(const std::vector<Pt>& pts, const CalibrationOptions& o, Plane& floor)
 {
@@ -102,53 +145,25 @@ bool searchFloor(const std::vector<Pt>& pts, const CalibrationOptions& o, Plane&
   const std::size_t step = std::max<std::size_t>(1, near.size() / 6000);
   for (std::size_t i = 0; i < near.size(); i += step)
     sample.push_back(near[i]);
-  struct Hyp
-  {
-    Plane p;
-    int support;
-    double score;
-  };
-  std::vector<Hyp> hyps;
-  for (int it = 0; it < o.iterations; ++it)
-  {
-    Plane p;
-    std::uniform_int_distribution<std::size_t> draw(0, sample.size() - 1);
-    if (!planeFrom3(pts[sample[draw(rng)]], pts[sample[draw(rng)]], pts[sample[draw(rng)]], p))
-      continue;
-    if (!floorLike(p, o))
-      continue;
-    // MSAC: inliers count by how well they fit (1 - (e / band)^2), so a plane that only grazes many points in
-    // their wide far bands loses to one that fits its points tightly.
-    double score = 0.0;
-    int support = 0;
-    for (std::size_t i : sample)
-    {
-      const Pt& q = pts[i];
-      const double e = std::fabs(p.n[0] * q.x + p.n[1] * q.y + p.n[2] * q.z + p.d) / band(q.z);
-      if (e < 1.0)
-      {
-        score += 1.0 - e * e;
-        ++support;
-      }
-    }
-    hyps.push_back({p, support, score});
-  }
-  const Hyp* top = nullptr;
-  for (const Hyp& h : hyps)
-    if (!top || h.score > top->score)
-      top = &h;
-  if (!top || top->support < std::max(10, static_cast<int>(o.min_fraction * sample.size())))
+  const Hyp top = bestPlane(pts, sample, o, rng);
+  if (top.support < std::max(10, static_cast<int>(o.min_fraction * sample.size())))
     return false;
-  const int needed = std::max(static_cast<int>(o.min_fraction * sample.size()), static_cast<int>(0.3 * top->support));
-  const double cos_parallel = std::cos(0.05);
-  const Hyp* chosen = top;
-  for (const Hyp& h : hyps)
+  const int needed = std::max(10, static_cast<int>(o.min_fraction * sample.size()));
+  Hyp chosen = top;
+  for (int round = 0; round < 4; ++round)
   {
-    const double c = h.p.n[0] * top->p.n[0] + h.p.n[1] * top->p.n[1] + h.p.n[2] * top->p.n[2];
-    if (h.support >= needed && c > cos_parallel && h.p.d > chosen->p.d + 0.2)
-      chosen = &h;
+    std::vector<std::size_t> below;
+    for (std::size_t i : sample)
+      if (signedDistance(chosen.p, pts[i]) < -band(pts[i].z))
+        below.push_back(i);
+    if (static_cast<int>(below.size()) < needed)
+      break;
+    const Hyp lower = bestPlane(pts, below, o, rng);
+    if (lower.support < needed || lower.p.d < chosen.p.d + 0.05)
+      break;
+    chosen = lower;
   }
-  floor = chosen->p;
+  floor = chosen.p;
   return true;
 }
 

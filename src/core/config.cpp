@@ -5,6 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/threshold_curve.h"
 
 namespace kinect_pipeline
@@ -47,10 +48,8 @@ std::string trim(const std::string& s)
 
 std::vector<CurvePoint> defaultThresholdCurve()
 {
-  // 2 cm + 4.5 sigma of a Kinect v2 (sigma = 1.5 mm + 1.9 mm * (z - 0.4)^2), rounded to millimetres.
-  return {{0.5, 0.027}, {1.0, 0.030}, {1.5, 0.037}, {2.0, 0.049}, {2.5, 0.064}, {3.0, 0.085},
-          {3.5, 0.109}, {4.0, 0.138}, {5.0, 0.208}, {6.0, 0.295}, {8.0, 0.521}, {10.0, 0.815},
-          {12.0, 1.178}};
+  // The Kinect v2 preset's: 2 cm + 4.5 sigma (sigma = 1.5 mm + 1.9 mm * (z - 0.4)^2), rounded to millimetres.
+  return sensorModel(kDefaultSensorModel).thresholdCurve();
 }
 
 std::vector<CurvePoint> parseThresholdCurve(const std::string& text)

@@ -22,6 +22,8 @@ from ._core import (
     evaluate_curve,
     morph_open,
     render_scene,
+    sensor_model,
+    sensor_models,
     threshold_lut,
 )
 
@@ -49,6 +51,8 @@ __all__ = [
     "kinect_v2_camera",
     "morph_open",
     "render_scene",
+    "sensor_model",
+    "sensor_models",
     "threshold_lut",
 ]
 

@@ -5,7 +5,7 @@ The plane search and fit are the C++ core's (``calibrate_from_floor``); this mod
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +16,36 @@ from . import _core
 
 class CalibrationError(ValueError):
     """A frame that cannot be read or used; the message names it."""
+
+
+#: What a folder of depth frames is read for (in name order).
+FRAME_SUFFIXES = (".png", ".pgm", ".npy", ".tif", ".tiff")
+
+
+def frame_paths(items: list[Path]) -> list[Path]:
+    """The depth frames named: files as they are, folders as the frames in them (``FRAME_SUFFIXES``, in name
+    order). A folder without frames raises CalibrationError naming it."""
+    out: list[Path] = []
+    for item in items:
+        if item.is_dir():
+            found = sorted(p for p in item.iterdir() if p.suffix.lower() in FRAME_SUFFIXES and p.is_file())
+            if not found:
+                raise CalibrationError(f"{item}: a folder without depth frames ({', '.join(FRAME_SUFFIXES)})")
+            out.extend(found)
+        else:
+            out.append(item)
+    return out
+
+
+def is_frames(items: list[Path]) -> bool:
+    """Whether ``items`` name depth frames (files with a frame suffix, or folders of them) rather than a bag."""
+    for item in items:
+        if item.is_dir():
+            if (item / "metadata.yaml").exists():
+                return False
+        elif item.suffix.lower() not in FRAME_SUFFIXES:
+            return False
+    return bool(items)
 
 
 def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) -> np.ndarray:
@@ -70,6 +100,7 @@ class Calibration:
     roll_std: float
     frames: list[dict[str, Any]]
     message: str = ""
+    warnings: list[str] = field(default_factory=list)  #: frames that disagree, a weak fit
 
     def as_dict(self, parent: str = "base_footprint", child: str = "kinect2_depth_optical_frame") -> dict[str, Any]:
         d: dict[str, Any] = {
@@ -87,8 +118,12 @@ class Calibration:
         }
         if self.message:
             d["message"] = self.message
+        d["warnings"] = list(self.warnings)
         if self.found:
-            d["launch_args"] = f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} pose_source:=static"
+            d["launch_args"] = (
+                f"sensor_height:={self.height:.4f} sensor_pitch:={self.pitch:.5f} sensor_roll:={self.roll:.5f} "
+                "pose_source:=static"
+            )
             d["yaml"] = {
                 "sensor_height": round(self.height, 4),
                 "sensor_pitch": round(self.pitch, 5),
@@ -179,7 +214,59 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         spread("pitch"),
         spread("roll"),
         per,
+        warnings=disagreement(good) + weak_fits(good),
     )
+
+
+#: How far the frames averaged may disagree before a warning, beyond their fits' own uncertainty (3 sigma):
+#: a robot standing still sees one pose; hand-held frames or a base that moved give several.
+DISAGREE = {"height": (0.01, "m", 1.0), "pitch": (math.radians(0.5), "deg", 180 / math.pi)}
+DISAGREE["roll"] = (math.radians(0.5), "deg", 180 / math.pi)
+
+
+def disagreement(good: list[dict[str, Any]]) -> list[str]:
+    """Warnings for pose terms whose frames disagree by more than DISAGREE and 3 sigma of their fits."""
+    out = []
+    for key, (limit, unit, k) in DISAGREE.items():
+        v = [r[key] for r in good]
+        if len(v) < 2:
+            continue
+        span, fit = max(v) - min(v), 3 * max(r[f"{key}_std"] for r in good)
+        if span > max(limit, fit):
+            fmt, fine = ("{:.3f}", "{:.4f}") if unit == "m" else ("{:.1f}", "{:.2f}")
+            out.append(
+                f"the {len(v)} frames disagree: {key} spans {fmt.format(k * min(v))}..{fmt.format(k * max(v))} "
+                f"{unit} (each fit is within {fine.format(k * fit / 3)} {unit}): was the sensor moving? the mean is "
+                "no frame's pose; calibrate from frames of the robot standing still"
+            )
+    return out
+
+
+#: A fit is weak with less floor than this fraction of the valid pixels, fewer floor pixels, or a looser plane.
+WEAK_FRACTION, WEAK_PIXELS, WEAK_RMS = 0.10, 2000, 0.03
+
+
+def weak_fits(good: list[dict[str, Any]]) -> list[str]:
+    """Warnings for frames whose floor is small, thin or far from flat."""
+    out = []
+    for r in good:
+        name = Path(str(r.get("file", "frame"))).name
+        why = []
+        if r["floor_fraction"] < WEAK_FRACTION:
+            why.append(f"the floor holds only {100 * r['floor_fraction']:.1f} % of the valid pixels (5 % needed)")
+        if r["floor_pixels"] < WEAK_PIXELS:
+            why.append(f"only {r['floor_pixels']} floor pixels")
+        if r["rms"] > WEAK_RMS:
+            why.append(f"its pixels lie {100 * r['rms']:.1f} cm (rms) off the fitted plane")
+        if r["height_std"] > 0.01 or max(r["pitch_std"], r["roll_std"]) > math.radians(0.5):
+            why.append(
+                "the fit is uncertain (height +- {:.3f} m, pitch +- {:.2f} deg, roll +- {:.2f} deg)".format(
+                    r["height_std"], math.degrees(r["pitch_std"]), math.degrees(r["roll_std"])
+                )
+            )
+        if why:
+            out.append(f"{name}: weak floor fit: {'; '.join(why)}: check the pose in the plot (--plot)")
+    return out
 
 
 # -- check of the tf-provided pose against the floor seen in each frame of a bag (moving base) --------------------
@@ -231,53 +318,48 @@ def check_tf(
     """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
     stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
     check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion)."""
-    from .replay import ReplayOptions, _pick_topics, _stamp, camera_from_info, depth_frames, image_to_array, read_tf
+    from .bags import BagError, depth_frames, open_bag, pick_topics, read_tf, stamp
 
     if not isinstance(bag, (str, Path)):
         raise TypeError(f"bag: {type(bag).__name__}, expected a path")
-    opts = ReplayOptions(depth_topic=depth_topic, info_topic=info_topic, base_frame=base_frame)
-    reader = _open(Path(bag))
-    frames: list[dict[str, Any]] = []
+    tolerance = 0.1
     try:
-        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
+        reader = open_bag(Path(bag))
+    except BagError as exc:
+        raise CalibrationError(str(exc)) from exc
+    frames: list[dict[str, Any]] = []
+    problems: list[str] = []
+    try:
+        depth_topic, info_topic = pick_topics(list(reader.connections), depth_topic, info_topic)
         tf = read_tf(reader)
-        for img, info in depth_frames(reader, depth_topic, info_topic, "calibrate" if show_progress else None):
-            stamp = _stamp(img.header)
-            rec: dict[str, Any] = {"stamp": stamp, "found": False}
+        progress = "calibrate" if show_progress else None
+        for img, cam, depth in depth_frames(reader, depth_topic, info_topic, progress, problems):
+            at = stamp(img)
+            rec: dict[str, Any] = {"stamp": at, "found": False}
+            frames.append(rec)
             try:
-                q, t = tf.lookup(base_frame, img.header.frame_id, stamp, opts.tf_tolerance)
+                q, t = tf.lookup(base_frame, img.header.frame_id, at, tolerance)
             except LookupError as exc:
                 rec["message"] = f"no tf: {exc}"
-                frames.append(rec)
                 continue
             h, p, r, _ = _core.pose_from_optical_transform((q, t), base_frame_height)
             rec.update(tf_height=h, tf_pitch=p, tf_roll=r)
-            cam = camera_from_info(info)
-            metres = depth_metres(image_to_array(img), 0.001, max_depth, depth_topic)
-            fit = dict(_core.calibrate_from_floor(metres, cam, max_tilt=max_tilt))
+            fit = dict(
+                _core.calibrate_from_floor(depth_metres(depth, 0.001, max_depth, depth_topic), cam, max_tilt=max_tilt)
+            )
             rec["floor_fraction"] = float(fit["floor_fraction"])
             if fit["found"]:
                 rec.update(found=True, floor_height=fit["height"], floor_pitch=fit["pitch"], floor_roll=fit["roll"])
                 rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch", "roll")})
             else:
                 rec["message"] = "no floor found"
-            frames.append(rec)
+    except BagError as exc:
+        raise CalibrationError(str(exc)) from exc
     finally:
         reader.close()
     if not frames:
-        raise CalibrationError(f"{bag}: no depth frame on {depth_topic} with a camera_info")
+        raise CalibrationError(f"{bag}: no frame of {depth_topic} could be used: {'; '.join(problems[:3])}")
     return TfCheck(str(bag), depth_topic, frames)
-
-
-def _open(bag: Path) -> Any:
-    from .replay import ReplayError, open_bag
-
-    if not bag.exists():
-        raise CalibrationError(f"{bag}: no such bag")
-    try:
-        return open_bag(bag)
-    except ReplayError as exc:
-        raise CalibrationError(str(exc)) from exc
 
 
 def describe_tf_check(check: TfCheck) -> str:
@@ -309,7 +391,7 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     good = [f for f in check.frames if f["found"]]
     t0 = check.frames[0]["stamp"]
@@ -341,5 +423,5 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
             f"height bias {100 * s['height']['median']:+.1f} cm (median of tf - floor)"
         )
     fig.tight_layout()
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

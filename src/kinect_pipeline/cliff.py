@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from . import _core, kinect_v2_camera
-from .demo import _save_atomic, plot_frame, progress
+from .demo import plot_frame, progress
+from .outputs import save_figure
 from .quality import CONDITIONS
 from .scenes import Scene, hole_scene, render_frame, stair_scene
 
@@ -133,7 +134,7 @@ def picture(out_dir: Path, encoding: str = "16UC1") -> list[Path]:
         ax.set_title(f"{name}: dashed = floor missing (truth)")
         ax.legend(loc="upper left")
         p = out_dir / f"cliff_{name}_scan.png"
-        _save_atomic(fig, p)
+        save_figure(fig, p)
         plt.close(fig)
         paths.append(p)
     return paths

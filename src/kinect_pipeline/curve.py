@@ -8,8 +8,6 @@ nearer than t). Also a curve from a noise model alone, for users without data.""
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import NormalDist
@@ -19,6 +17,7 @@ import numpy as np
 
 from . import _core
 from .calibrate import calibrate
+from .outputs import write_text
 
 DEPTHS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0)
 
@@ -114,10 +113,7 @@ def write_yaml(fit: CurveFit, path: Path) -> None:
         f"# kinect-pipeline curve: sigma(d) = {fit.sigma0:.5f} + {fit.k_quad:.5f} (d - 0.4)^2, "
         f't = {fit.k:.2f} sigma + {fit.margin:g}\nthreshold_curve: "{fit.text}"\n'
     )
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
+    write_text(path, text)
 
 
 def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
@@ -126,7 +122,7 @@ def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 5))
     if fit.residuals is not None:
@@ -145,7 +141,7 @@ def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
     ax.grid(True, color="0.85")
     ax.legend(fontsize=8)
     ax.set_title(f"threshold curve: k = {fit.k:.2f}, margin {fit.margin:g} m")
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -342,13 +338,7 @@ def comparison_table(scores: list[CurveScore]) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for s in scores:
-        cfg = _core.Config(threshold_curve=s.curve)
-        pts = cfg.threshold_curve
-
-        def at(d: float, pts: list[tuple[float, float]] = pts) -> float:
-            return float(np.interp(d, [p[0] for p in pts], [p[1] for p in pts]))
-
-        t = " / ".join(f"{100 * at(d):.1f}" for d in (1, 2, 4, 6))
+        t = " / ".join(f"{100 * _core.evaluate_curve(s.curve, d):.1f}" for d in (1.0, 2.0, 4.0, 6.0))
         rem = " | ".join(f"{100 * x:.2f}" for x in s.removed)
         lines.append(f"| {s.name} | {t} | {100 * s.false_obstacle:.3f} | {100 * s.phantom:.2f} | {rem} |")
     return "\n".join(lines)
@@ -361,14 +351,13 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .demo import _save_atomic
+    from .outputs import save_figure
 
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5))
     d = np.linspace(0.5, 8.0, 200)
     styles = ["b-", "r--", "m:", "0.5"]
     for s, st in zip(scores, styles, strict=False):
-        pts = _core.Config(threshold_curve=s.curve).threshold_curve
-        a.plot(d, 100 * np.interp(d, [p[0] for p in pts], [p[1] for p in pts]), st, label=s.name)
+        a.plot(d, 100 * _core.evaluate_curve(s.curve, d), st, label=s.name)
     a.set_xlabel("depth [m]")
     a.set_ylabel("threshold t(d) [cm]")
     a.set_ylim(0, 60)
@@ -390,5 +379,5 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     b.grid(True, axis="y", color="0.85")
     b.set_title("on generated noisy frames (Segway pitching)")
     fig.tight_layout()
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)

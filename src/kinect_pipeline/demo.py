@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +13,7 @@ import numpy as np
 
 from . import _core, kinect_v2_camera
 from .metrics import FrameQuality, frame_quality, ideal_scan
+from .outputs import save_figure, write_text
 from .scenes import Frame, Scene, lab_scene, render_frame
 
 
@@ -58,17 +57,6 @@ def to_metres(depth: np.ndarray, max_depth: float) -> np.ndarray:
     return m
 
 
-def _save_atomic(fig: Any, path: Path) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=110)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-
-
 def plot_frame(depth: np.ndarray, res: _core.Result, max_depth: float, path: Path, title: str) -> None:
     """Raw depth (the encoded input), cleaned depth and labels side by side (thesis figs 4.11, 4.17a/b)."""
     import matplotlib
@@ -105,7 +93,7 @@ def plot_frame(depth: np.ndarray, res: _core.Result, max_depth: float, path: Pat
         fontsize=8,
     )
     fig.suptitle(title)
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -149,7 +137,7 @@ def plot_scan(frame: Frame, res: _core.Result, path: Path, title: str) -> None:
     ax.set_ylabel("y left [m]")
     ax.legend(loc="upper right", fontsize=8)
     ax.set_title(title)
-    _save_atomic(fig, path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -206,7 +194,7 @@ def run_demo(
         "ms_per_frame_median": float(np.median(times)),
         "pictures": ["frame.png", "scan.png"],
     }
-    tmp = out / "quality.json.tmp"
-    tmp.write_text(json.dumps({"summary": summary, "frames": [q.as_dict() for q in qualities]}, indent=1))
-    os.replace(tmp, out / "quality.json")
+    write_text(
+        out / "quality.json", json.dumps({"summary": summary, "frames": [q.as_dict() for q in qualities]}, indent=1)
+    )
     return summary

@@ -308,3 +308,46 @@ def _pose_row(cond: str, method: str, acc: dict[str, list[float]]) -> PoseRow:
 
 def pose_table(rows: list[PoseRow]) -> str:
     return POSE_HEADER + "\n" + "\n".join(r.markdown() for r in rows)
+
+
+def default_config_table(frames: int, height: float, pitch: float, encodings: list[str]) -> str:
+    """A Markdown table of the default configuration's quality on noisy rendered frames at a known pose (the base
+    pitching and rolling a few degrees), per encoding: worst frame of each measure."""
+    from .metrics import frame_quality
+
+    cam = kinect_v2_camera()
+    cond = [(0.0, 0.0), (math.radians(6), math.radians(2)), (-math.radians(6), math.radians(2))]
+    cond.append((math.radians(3), -math.radians(2)))
+    lines = [
+        "| encoding | frames | floor removed (<6 m) min | obstacles 5 cm..1.95 m kept min "
+        "| above ceiling removed min | phantom beams max |",
+        "|---|---|---|---|---|---|",
+    ]
+    for enc in encodings:
+        rows = []
+        for i in range(frames):
+            bp, br = cond[i % len(cond)]
+            pipe = _core.Pipeline(cam, _core.Config(sensor_height=height, sensor_pitch=pitch))
+            f = render_frame(cam, lab_scene(), height, pitch + bp, br, enc, seed=100 + i)
+            q = frame_quality(pipe.process(f.depth, bp, br), f)
+            rows.append([q.floor_removed, q.obstacles_kept, q.above_ceiling_removed, q.phantom_beams])
+        a = np.array(rows)
+        lines.append(
+            f"| {enc} | {len(rows)} | {np.nanmin(a[:, 0]):.4f} | {np.nanmin(a[:, 1]):.4f} "
+            f"| {np.nanmin(a[:, 2]):.4f} | {np.nanmax(a[:, 3]):.4f} |"
+        )
+    return "\n".join(lines)
+
+
+def bag_quality(bag: Any, opts: Any = None, show_progress: bool = False) -> dict[str, Any]:
+    """The replay of a bag with the generator's ground truth (``/ground_truth/scan``, ``/ground_truth/labels``)
+    scored against it, as ``report``'s quality.json: phantom and missed beams (fractions of all beams) and the
+    labels' agreement. A bag without ground truth raises ReplayError."""
+    from .replay import ReplayError, ReplayOptions
+    from .report import GT_SCAN, collect, truth_quality
+
+    c = collect(bag, opts or ReplayOptions(), show_progress)
+    q = truth_quality(c)
+    if not q:
+        raise ReplayError(f"{bag}: no ground truth ({GT_SCAN}) in the bag to score against")
+    return {"frames": len(c.frames), **q}

@@ -6,7 +6,6 @@
 from __future__ import annotations
 
 import math
-import os
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .bag import write_sequence_bag
+from .outputs import atomic_file
 from .replay import ReplayOptions
 from .report import collect
 
@@ -74,10 +74,8 @@ def run_case(case: Case, config_override: dict[str, Any] | None = None) -> dict[
 def save_golden(case: Case, out: dict[str, np.ndarray], directory: Path = GOLDEN_DIR) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     path = directory / f"{case.name}.npz"
-    fd, tmp = tempfile.mkstemp(dir=directory, suffix=".npz")
-    os.close(fd)
-    np.savez_compressed(tmp, **out)
-    os.replace(tmp, path)
+    with atomic_file(path) as tmp:
+        np.savez_compressed(tmp, **out)
     return path
 
 

@@ -1,9 +1,10 @@
-"""Report of a bag: pictures people would rather see than read, and an index.html.
+"""Report of a bag or of depth frames: pictures people would rather see than read, and an index.html.
 
-``kinect-pipeline report IN.bag -o DIR`` runs the core over the bag (at the pose its tf gives) and writes:
-frame.png (raw, cleaned and labelled depth: thesis figs 4.11, 4.17a/b), scan.png (the Kinect scan over the LiDAR
-scan in the robot frame, 1 m grid: fig 4.20b), confidence.png (before and after the intensity filter: fig 4.21),
-timing.png (per-frame processing time) and index.html; with the generator's ground truth, quality.json too.
+``kinect-pipeline report IN -o DIR`` runs the core over IN (a bag at the pose its tf gives, or depth frames at a
+given or calibrated pose) and writes: frame.png (raw, cleaned and labelled depth: thesis figs 4.11, 4.17a/b),
+scan.png (the scan in the robot frame, over the LiDAR's where the bag has one: fig 4.20b), confidence.png (before
+and after the intensity filter, for a sequence: fig 4.21), timing.png and index.html; with the generator's ground
+truth, quality.json too. A panel appears only where its data exists; each has a caption saying what it shows.
 """
 
 from __future__ import annotations
@@ -11,7 +12,6 @@ from __future__ import annotations
 import html
 import json
 import math
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,129 +19,197 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .demo import _save_atomic, plot_frame
+from .bags import LASER_SCAN, depth_frames, open_bag, pick_topics, read_side, read_tf, stamp
+from .demo import plot_frame
 from .metrics import missed_beams, phantom_beams
-from .replay import (
-    ReplayError,
-    ReplayOptions,
-    _pick_topics,
-    _stamp,
-    _typestore,
-    camera_from_info,
-    depth_frames,
-    image_to_array,
-    open_bag,
-    read_tf,
-)
+from .outputs import check_outputs, output_folder, save_figure, write_text
+from .replay import ReplayError, ReplayOptions
+
+#: Everything a report may write into its folder.
+FILES = ("frame.png", "scan.png", "confidence.png", "timing.png", "quality.json", "index.html")
+GT_SCAN, GT_LABELS = "/ground_truth/scan", "/ground_truth/labels"
 
 
 @dataclass
 class FrameRecord:
     stamp: float
-    base_pitch_hint: float
-    pose: tuple[float, float, float]
-    sensor_xy: tuple[float, float, float]
+    pose: tuple[float, float, float]  #: height [m], pitch, roll [rad]
+    sensor_xy: tuple[float, float, float]  #: x, y [m], yaw [rad] of the sensor in the base frame
     ranges: np.ndarray
     intensities: np.ndarray
-    filtered: np.ndarray
+    filtered: np.ndarray  #: ranges with the intensity filter on
     ms: float
+    cliff: int = 0  #: beams with a cliff
     lidar: tuple[np.ndarray, float, float, tuple[float, float, float]] | None = None
     gt_scan: np.ndarray | None = None
-    gt_labels: np.ndarray | None = None
     labels_match: float = math.nan
-    labels: np.ndarray | None = None
+    labels: np.ndarray | None = None  #: kept only on request (regress)
 
 
 @dataclass
 class Collected:
+    source: str  #: what was read (a bag, frames)
     frames: list[FrameRecord] = field(default_factory=list)
     angle_min: float = 0.0
     angle_increment: float = 0.0
-    showcase: tuple[np.ndarray, Any, float] | None = None  # depth, result, max_depth
+    showcase: tuple[np.ndarray, Any, float, str] | None = None  #: depth, result, max_depth, which frame
+    pose_note: str = ""  #: where the pose came from
+    problems: list[str] = field(default_factory=list)
 
 
-def collect(bag: Path, opts: ReplayOptions, show_progress: bool = True, keep_labels: bool = False) -> Collected:
-    """Runs two pipelines over the bag: the configured one, and the same with the intensity filter on."""
-    ts = _typestore()
-    out = Collected()
-    reader = open_bag(bag)
+class _Runner:
+    """Two pipelines over the same frames: the configured one, and the same with the intensity filter on."""
+
+    def __init__(self, config: dict[str, Any], out: Collected) -> None:
+        self.config, self.out = config, out
+        self.pipe: Any = None
+        self.pipe_f: Any = None
+        self.camera: Any = None
+        self.best = -1.0
+
+    def run(self, cam: Any, depth: np.ndarray, pose: tuple[float, float, float], name: str) -> tuple[Any, float]:
+        if self.pipe is None or repr(cam) != repr(self.camera):
+            self.camera = cam
+            self.pipe = _core.Pipeline(cam, _core.Config(**self.config))
+            self.pipe_f = _core.Pipeline(cam, _core.Config(**{**self.config, "intensity_filter": True}))
+        res = self.pipe.process_pose(depth, *pose)
+        res_f = self.pipe_f.process_pose(depth, *pose)
+        self.out.angle_min, self.out.angle_increment = res.angle_min, res.angle_increment
+        score = abs(pose[1]) + float((res.labels == 0).mean()) * 1e-3  # the largest pitch; ties: the most kept
+        if score > self.best:
+            self.best = score
+            self.out.showcase = (depth.copy(), res, float(self.pipe.config.max_depth), name)
+        return res, res_f
+
+
+def _side_topics(bag: Any) -> tuple[str | None, dict[str, dict[float, Any]]]:
+    """The bag's LiDAR scan topic (a LaserScan that is not ground truth) and its LiDAR and ground-truth messages
+    by stamp (they may come after the frame they belong to)."""
+    lidar = next(
+        (c.topic for c in bag.connections if c.msgtype == LASER_SCAN and not c.topic.startswith("/ground_truth")),
+        None,
+    )
+    side: dict[str, dict[float, Any]] = {"lidar": {}, "gt_scan": {}, "gt_labels": {}}
+    topics = tuple(t for t in (lidar, GT_SCAN, GT_LABELS) if t and any(c.topic == t for c in bag.connections))
+    for conn, msg in read_side(bag, topics):
+        key = {lidar: "lidar", GT_SCAN: "gt_scan", GT_LABELS: "gt_labels"}[conn.topic]
+        if key == "gt_scan":
+            side[key][stamp(msg)] = np.array(msg.ranges, np.float32)
+        elif key == "gt_labels":
+            side[key][stamp(msg)] = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
+        else:
+            side[key][stamp(msg)] = msg
+    return lidar, side
+
+
+def collect(bag_path: Path, opts: ReplayOptions, show_progress: bool = True, keep_labels: bool = False) -> Collected:
+    """Runs the core over every depth frame of a bag at its tf pose (the static pose of ``opts.config`` where tf
+    has none), with the LiDAR and ground truth of each frame where the bag has them."""
+    out = Collected(f"bag {bag_path}")
+    bag = open_bag(bag_path)
     try:
-        depth_topic, info_topic = _pick_topics(list(reader.connections), opts)
-        tf = read_tf(reader)
-        lidar_topic = next(
-            (
-                c.topic
-                for c in reader.connections
-                if c.msgtype == "sensor_msgs/msg/LaserScan" and "ground_truth" not in c.topic
-            ),
-            None,
-        )
-        pending: dict[str, dict[float, Any]] = {"lidar": {}, "gt_scan": {}, "gt_labels": {}}
-        # Side topics first: they may come after the frame they belong to.
-        side = [c for c in reader.connections if c.topic in (lidar_topic, "/ground_truth/scan", "/ground_truth/labels")]
-        for conn, _, raw in reader.messages(connections=side):
-            msg = ts.deserialize_ros1(raw, conn.msgtype)
-            st = _stamp(msg.header)
-            if conn.topic == lidar_topic:
-                pending["lidar"][st] = msg
-            elif conn.topic == "/ground_truth/scan":
-                pending["gt_scan"][st] = np.array(msg.ranges, np.float32)
-            else:
-                pending["gt_labels"][st] = np.frombuffer(msg.data, np.uint8).reshape(msg.height, msg.width)
-        config = dict(opts.config)
-        pipe = pipe_f = None
-        best_score = -1.0
-        for msg, info in depth_frames(reader, depth_topic, info_topic, "report" if show_progress else None):
-            st = _stamp(msg.header)
-            cam = camera_from_info(info)
-            if pipe is None:
-                pipe = _core.Pipeline(cam, _core.Config(**config))
-                pipe_f = _core.Pipeline(cam, _core.Config(**{**config, "intensity_filter": True}))
-            depth = image_to_array(msg)
+        depth_topic, info_topic = pick_topics(list(bag.connections), opts.depth_topic, opts.info_topic)
+        out.source = f"bag {bag_path}, {depth_topic}"
+        tf = read_tf(bag)
+        _, side = _side_topics(bag)
+        runner, fallback = _Runner(dict(opts.config), out), 0
+        static = _core.Config(**opts.config)
+        for msg, cam, depth in depth_frames(
+            bag, depth_topic, info_topic, "report" if show_progress else None, out.problems
+        ):
+            st = stamp(msg)
             try:
                 q, t = tf.lookup(opts.base_frame, msg.header.frame_id, st, opts.tf_tolerance)
                 h, p, r, yaw = _core.pose_from_optical_transform((q, t), opts.base_frame_height)
                 xy = (t[0], t[1], yaw)
             except LookupError:
-                h, p, r, xy = (
-                    pipe.config.sensor_height,
-                    pipe.config.sensor_pitch,
-                    pipe.config.sensor_roll,
-                    (0.0, 0.0, 0.0),
-                )
-            assert pipe is not None and pipe_f is not None
-            res = pipe.process_pose(depth, h, p, r)
-            res_f = pipe_f.process_pose(depth, h, p, r)
-            rec = FrameRecord(st, 0.0, (h, p, r), xy, res.ranges, res.intensities, res_f.ranges, res.times["total"])
-            out.angle_min, out.angle_increment = res.angle_min, res.angle_increment
-            rec.gt_scan = pending["gt_scan"].get(st)
-            if keep_labels:
-                rec.labels = res.labels
-            gt = pending["gt_labels"].get(st)
-            if gt is not None:
+                h, p, r, xy = static.sensor_height, static.sensor_pitch, static.sensor_roll, (0.0, 0.0, 0.0)
+                fallback += 1
+            res, res_f = runner.run(cam, depth, (h, p, r), f"frame at {st:.2f} s")
+            rec = _record(st, (h, p, r), xy, res, res_f)
+            rec.gt_scan = side["gt_scan"].get(st)
+            gt = side["gt_labels"].get(st)
+            if gt is not None and gt.shape == res.labels.shape:
                 rec.labels_match = float((gt == res.labels).mean())
-            lid = pending["lidar"].get(st) or (pending["lidar"][max(pending["lidar"])] if pending["lidar"] else None)
-            if lid is not None:
-                try:
-                    lq, lt = tf.lookup(opts.base_frame, lid.header.frame_id, st, opts.tf_tolerance)
-                    yaw_l = _core.roll_pitch_yaw(lq)[2]
-                    rec.lidar = (
-                        np.array(lid.ranges, np.float32),
-                        lid.angle_min,
-                        lid.angle_increment,
-                        (lt[0], lt[1], yaw_l),
-                    )
-                except LookupError:
-                    pass
+            rec.lidar = _lidar_at(side["lidar"], tf, opts, st)
+            rec.labels = res.labels if keep_labels else None
             out.frames.append(rec)
-            score = abs(p)
-            if score > best_score:
-                best_score = score
-                out.showcase = (depth.copy(), res, float(pipe.config.max_depth))
     finally:
-        reader.close()
+        bag.close()
     if not out.frames:
-        raise ReplayError(f"{bag}: no depth frame with a camera_info on {depth_topic}")
+        why = "; ".join(out.problems[:3]) or "no depth frame in it"
+        raise ReplayError(f"{bag_path}: no frame of {depth_topic} could be processed: {why}")
+    n = len(out.frames)
+    out.pose_note = (
+        f"pose from the bag's tf ({opts.base_frame})"
+        if not fallback
+        else f"pose from tf for {n - fallback} of {n} frames, the static pose of the parameters for the rest"
+    )
+    return out
+
+
+def _record(
+    st: float, pose: tuple[float, float, float], xy: tuple[float, float, float], res: Any, res_f: Any
+) -> FrameRecord:
+    cliff = int(np.isfinite(res.cliff_ranges).sum()) if len(res.cliff_ranges) else 0
+    return FrameRecord(st, pose, xy, res.ranges, res.intensities, res_f.ranges, res.times["total"], cliff)
+
+
+def _lidar_at(lidar: dict[float, Any], tf: Any, opts: ReplayOptions, st: float) -> Any:
+    if not lidar:
+        return None
+    msg = lidar.get(st) or lidar[min(lidar, key=lambda s: abs(s - st))]
+    try:
+        lq, lt = tf.lookup(opts.base_frame, msg.header.frame_id, st, opts.tf_tolerance)
+    except LookupError:
+        return None
+    yaw = _core.roll_pitch_yaw(lq)[2]
+    return (np.array(msg.ranges, np.float32), msg.angle_min, msg.angle_increment, (lt[0], lt[1], yaw))
+
+
+def collect_frames(
+    files: list[Path],
+    camera: Any,
+    config: dict[str, Any] | None = None,
+    depth_scale: float = 0.001,
+    max_depth: float = 12.0,
+    show_progress: bool = True,
+) -> Collected:
+    """Runs the core over depth frames (one sequence, in the order given) at the pose of ``config``'s
+    sensor_height / sensor_pitch / sensor_roll where it gives one, else at the pose calibrated from the frames'
+    floor."""
+    from .calibrate import CalibrationError, calibrate, load_depth
+
+    config = dict(config or {})
+    out = Collected(f"{len(files)} depth frame(s): {files[0]}{' ...' if len(files) > 1 else ''}")
+    frames = [(str(f), load_depth(f, depth_scale, max_depth)) for f in files]
+    if not any(k in config for k in ("sensor_height", "sensor_pitch", "sensor_roll")):
+        cal = calibrate(frames, camera)
+        if not cal.found:
+            raise CalibrationError(
+                f"{cal.message}: give the pose with --param sensor_height=H --param sensor_pitch=P (m, rad)"
+            )
+        config.update(sensor_height=cal.height, sensor_pitch=cal.pitch, sensor_roll=cal.roll)
+        out.pose_note = (
+            f"pose calibrated from the frames' floor: height {cal.height:.3f} m, pitch "
+            f"{math.degrees(cal.pitch):.2f} deg, roll {math.degrees(cal.roll):.2f} deg"
+        )
+        out.problems += cal.warnings
+    else:
+        out.pose_note = "pose from the parameters"
+    cfg = _core.Config(**config)
+    pose = (cfg.sensor_height, cfg.sensor_pitch, cfg.sensor_roll)
+    runner = _Runner(config, out)
+    items: Any = frames
+    if show_progress:
+        from .demo import progress
+
+        items = progress(frames, len(frames), "report")
+    for i, (name, metres) in enumerate(items):
+        if metres.shape != (camera.height, camera.width):
+            raise CalibrationError(f"{name}: {metres.shape[1]}x{metres.shape[0]}, but the camera is {camera!r}")
+        res, res_f = runner.run(camera, metres, pose, Path(name).name)
+        out.frames.append(_record(float(i), pose, (0.0, 0.0, 0.0), res, res_f))
     return out
 
 
@@ -152,57 +220,115 @@ def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float,
 
 
 def write_report(
-    bag: Path, out_dir: Path, opts: ReplayOptions | None = None, show_progress: bool = True
+    source: Path | list[Path],
+    out_dir: Path,
+    opts: ReplayOptions | None = None,
+    show_progress: bool = True,
+    camera: Any = None,
+    depth_scale: float = 0.001,
 ) -> dict[str, Any]:
+    """Runs the core over ``source`` and writes the report's pictures, ``index.html`` (and ``quality.json`` with
+    ground truth) into ``out_dir``. ``source``: a bag of any kind, or depth frames (files or folders of them: then
+    ``camera`` is needed). Nothing is written when the input cannot be used, and none of the report's files may be
+    an input."""
+    from .calibrate import frame_paths, is_frames
+
+    opts = opts or ReplayOptions()
+    out_dir = Path(out_dir)
+    items = [Path(p) for p in source] if isinstance(source, (list, tuple)) else [Path(source)]
+    check_outputs(items, [out_dir / name for name in FILES], folders=[out_dir])
+    if is_frames(items):
+        if camera is None:
+            raise ReplayError(f"{items[0]}: depth frames need the camera's intrinsics (--intrinsics or --sensor-model)")
+        c = collect_frames(frame_paths(items), camera, opts.config, depth_scale, show_progress=show_progress)
+    elif len(items) == 1:
+        c = collect(items[0], opts, show_progress)
+    else:
+        raise ReplayError(f"one bag at a time: got {len(items)} inputs ({', '.join(map(str, items))})")
+    with output_folder(out_dir):
+        return _write(out_dir, c)
+
+
+def _write(out_dir: Path, c: Collected) -> dict[str, Any]:
     import matplotlib
 
     matplotlib.use("Agg")
+    pictures = [_frame_panel(out_dir, c), _scan_panel(out_dir, c)]
+    if len(c.frames) > 1:
+        pictures.append(_confidence_panel(out_dir, c))
+        pictures.append(_timing_panel(out_dir, c))
+    summary = _summary(c)
+    quality = truth_quality(c)
+    if quality:
+        summary.update(quality)
+        write_text(out_dir / "quality.json", json.dumps(summary, indent=1))
+    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
+    notes = "".join(f"<li>{html.escape(p)}</li>" for p in c.problems[:20])
+    figs = "".join(
+        f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
+        for p, t in pictures
+    )
+    page = (
+        "<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
+        f"<h1>kinect_pipeline report</h1><p>{html.escape(c.source)}; {html.escape(c.pose_note)}</p>"
+        f"<table>{rows}</table>{f'<ul>{notes}</ul>' if notes else ''}{figs}</body></html>"
+    )
+    write_text(out_dir / "index.html", page)
+    summary["pictures"] = [p for p, _ in pictures] + ["index.html"]
+    return summary
+
+
+def _frame_panel(out_dir: Path, c: Collected) -> tuple[str, str]:
+    assert c.showcase is not None
+    depth, res, max_depth, which = c.showcase
+    what = "the frame with the largest pitch" if len(c.frames) > 1 else "the frame"
+    plot_frame(depth, res, max_depth, out_dir / "frame.png", f"{which}: {what}")
+    return "frame.png", (
+        f"Raw, cleaned and labelled depth of {what} ({which}): green floor, blue above the ceiling plane, "
+        "magenta below the floor, black invalid"
+    )
+
+
+def _scan_panel(out_dir: Path, c: Collected) -> tuple[str, str]:
     import matplotlib.pyplot as plt
 
-    opts = opts or ReplayOptions()
-    out_dir.mkdir(parents=True, exist_ok=True)
-    c = collect(bag, opts, show_progress)
-    assert c.showcase is not None
-    depth, res, max_depth = c.showcase
-    pictures: list[tuple[str, str]] = []
-
-    # 1. Raw, cleaned and labelled depth.
-    plot_frame(depth, res, max_depth, out_dir / "frame.png", "frame with the largest pitch")
-    pictures.append(("frame.png", "Raw, cleaned and labelled depth of the frame with the largest pitch"))
-
-    # 2. The Kinect scan over the LiDAR scan, robot frame, 1 m grid.
     fr = max(c.frames, key=lambda f: abs(f.pose[1]))
     fig, ax = plt.subplots(figsize=(7, 7))
     if fr.lidar is not None:
         lp = _points(fr.lidar[0], fr.lidar[1], fr.lidar[2], fr.lidar[3])
         ax.scatter(lp[:, 0], lp[:, 1], s=5, c="tab:cyan", label="LiDAR scan")
-    kp_pts = _points(fr.ranges, c.angle_min, c.angle_increment, fr.sensor_xy)
-    ax.scatter(kp_pts[:, 0], kp_pts[:, 1], s=5, c="k", label="Kinect scan")
+    pts = _points(fr.ranges, c.angle_min, c.angle_increment, fr.sensor_xy)
+    ax.scatter(pts[:, 0], pts[:, 1], s=5, c="k", label="depth camera scan")
     ax.plot([0], [0], "r^", markersize=10, label="robot")
-    ax.set_xticks(np.arange(-1, 9))
-    ax.set_yticks(np.arange(-5, 6))
+    far = max(2.0, float(np.nanmax(np.abs(pts))) if len(pts) else 2.0)
+    ax.set_xticks(np.arange(-1, math.ceil(far) + 1))
     ax.grid(True, color="0.85")
     ax.set_aspect("equal")
-    ax.set_xlim(-1, 8)
-    ax.set_ylim(-4.5, 4.5)
+    ax.set_xlim(-1, min(math.ceil(far) + 0.5, 12))
+    ax.set_ylim(-min(far, 6), min(far, 6))
     ax.set_xlabel("x forward [m]")
     ax.set_ylabel("y left [m]")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(f"scan at {fr.stamp:.2f} s, pitch {math.degrees(fr.pose[1]):.1f} deg")
-    _save_atomic(fig, out_dir / "scan.png")
+    ax.set_title(f"scan, pitch {math.degrees(fr.pose[1]):.1f} deg")
+    save_figure(fig, out_dir / "scan.png")
     plt.close(fig)
-    pictures.append(("scan.png", "The Kinect scan over the LiDAR scan in the robot frame, 1 m grid (thesis fig 4.20b)"))
+    over = " over the LiDAR scan (cyan)" if fr.lidar is not None else ""
+    return "scan.png", f"The depth camera's scan (nearest obstacle per beam){over} in the robot frame, 1 m grid"
 
-    # 3. Confidence before / after the intensity filter, over the whole sequence.
+
+def _confidence_panel(out_dir: Path, c: Collected) -> tuple[str, str]:
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(1, 2, figsize=(13, 5.5), sharex=True, sharey=True)
+    sc = None
     for a, key, title in ((ax[0], "ranges", "without intensity filter"), (ax[1], "filtered", "with intensity filter")):
         xs, ys, cs = [], [], []
         for f in c.frames:
-            pts = _points(getattr(f, key), c.angle_min, c.angle_increment, f.sensor_xy)
-            ok = np.isfinite(getattr(f, key))
+            ranges = getattr(f, key)
+            pts = _points(ranges, c.angle_min, c.angle_increment, f.sensor_xy)
             xs.append(pts[:, 0])
             ys.append(pts[:, 1])
-            cs.append(f.intensities[ok])
+            cs.append(f.intensities[np.isfinite(ranges)])
         sc = a.scatter(np.concatenate(xs), np.concatenate(ys), s=2, c=np.concatenate(cs), cmap="autumn", vmin=0, vmax=1)
         a.set_title(title)
         a.grid(True, color="0.85")
@@ -210,62 +336,58 @@ def write_report(
         a.set_xlabel("x forward [m]")
     ax[0].set_ylabel("y left [m]")
     fig.colorbar(sc, ax=ax.tolist(), shrink=0.7, label="intensity (confidence)")
-    _save_atomic(fig, out_dir / "confidence.png")
+    save_figure(fig, out_dir / "confidence.png")
     plt.close(fig)
-    pictures.append(
-        ("confidence.png", "All scans of the bag, coloured by confidence, before and after the filter (fig 4.21)")
+    return "confidence.png", (
+        f"All {len(c.frames)} scans coloured by confidence, without and with the intensity filter (thesis fig 4.21)"
     )
 
-    # 4. Timing.
+
+def _timing_panel(out_dir: Path, c: Collected) -> tuple[str, str]:
+    import matplotlib.pyplot as plt
+
     fig, ax = plt.subplots(figsize=(8, 3.5))
     ax.plot([f.ms for f in c.frames], ".-")
     ax.set_xlabel("frame")
     ax.set_ylabel("core time per frame [ms]")
     ax.grid(True, color="0.85")
-    _save_atomic(fig, out_dir / "timing.png")
+    save_figure(fig, out_dir / "timing.png")
     plt.close(fig)
-    pictures.append(("timing.png", "Per-frame processing time of the core"))
+    return "timing.png", "The core's processing time per frame, in this process (no other load measured)"
 
-    summary: dict[str, Any] = {
-        "bag": str(bag),
+
+def _summary(c: Collected) -> dict[str, Any]:
+    pitches = [math.degrees(f.pose[1]) for f in c.frames]
+    return {
+        "input": c.source,
+        "pose": c.pose_note,
         "frames": len(c.frames),
-        "ms_per_frame_median": float(np.median([f.ms for f in c.frames])),
-        "pitch_deg_range": [
-            math.degrees(min(f.pose[1] for f in c.frames)),
-            math.degrees(max(f.pose[1] for f in c.frames)),
-        ],
+        "ms_per_frame_median": round(float(np.median([f.ms for f in c.frames])), 3),
+        "pitch_deg_range": [round(min(pitches), 2), round(max(pitches), 2)],
+        "frames_with_cliff_beams": sum(f.cliff > 0 for f in c.frames),
+        "problems": len(c.problems),
     }
+
+
+def truth_quality(c: Collected) -> dict[str, Any]:
+    """Against the generator's ground truth, where the bag has it: the goal's phantom beams (> 5 cm + 4 sigma short,
+    as quality.json of the demo and `quality`), the plain 5 cm count (a far wall's noise fills it), missed beams
+    and the labels' agreement."""
     with_gt = [f for f in c.frames if f.gt_scan is not None]
-    if with_gt:
-        phantom = phantom_5cm = missed = beams = 0
-        for f in with_gt:
-            gt = f.gt_scan
-            assert gt is not None  # with_gt
-            over_5cm, over_noise = phantom_beams(f.ranges, gt)
-            phantom += int(over_noise.sum())
-            phantom_5cm += int(over_5cm.sum())
-            missed += int(missed_beams(f.ranges, gt).sum())
-            beams += len(f.ranges)
-        # The goal's phantom (> 5 cm + 4 sigma short, as quality.json of the demo and `quality`), and the plain
-        # 5 cm count, which a far wall's noise fills (the min over its pixels lies about 2 sigma short).
-        summary["phantom_beams"] = phantom / beams
-        summary["phantom_beams_5cm"] = phantom_5cm / beams
-        summary["missed_beams"] = missed / beams
-        summary["label_agreement_min"] = float(np.nanmin([f.labels_match for f in with_gt]))
-        tmp = out_dir / "quality.json.tmp"
-        tmp.write_text(json.dumps(summary, indent=1))
-        os.replace(tmp, out_dir / "quality.json")
-    rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
-    figs = "".join(
-        f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
-        for p, t in pictures
-    )
-    page = (
-        f"<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
-        f"<h1>kinect_pipeline report</h1><p>{html.escape(str(bag))}</p><table>{rows}</table>{figs}</body></html>"
-    )
-    tmp = out_dir / "index.html.tmp"
-    tmp.write_text(page)
-    os.replace(tmp, out_dir / "index.html")
-    summary["pictures"] = [p for p, _ in pictures] + ["index.html"]
-    return summary
+    if not with_gt:
+        return {}
+    phantom = phantom_5cm = missed = beams = 0
+    for f in with_gt:
+        gt = f.gt_scan
+        assert gt is not None
+        over_5cm, over_noise = phantom_beams(f.ranges, gt)
+        phantom += int(over_noise.sum())
+        phantom_5cm += int(over_5cm.sum())
+        missed += int(missed_beams(f.ranges, gt).sum())
+        beams += len(f.ranges)
+    return {
+        "phantom_beams": round(phantom / beams, 5),
+        "phantom_beams_5cm": round(phantom_5cm / beams, 5),
+        "missed_beams": round(missed / beams, 5),
+        "label_agreement_min": round(float(np.nanmin([f.labels_match for f in with_gt])), 4),
+    }

@@ -1,6 +1,8 @@
 // pybind11 binding of the ROS-free core: kinect_pipeline._core.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iomanip>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -15,9 +17,11 @@
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/compressed_depth.h"
 #include "kinect_pipeline/config.h"
+#include "kinect_pipeline/depth_image.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/synthetic.h"
 #include "kinect_pipeline/threshold_curve.h"
 #include "kinect_pipeline/visualize.h"
@@ -171,6 +175,105 @@ std::string describeTerms(const std::string& name, double h, double p, double r)
   return s.str();
 }
 
+/** The Config fields' docstrings (units and ranges as config.h and the .cfg state them). */
+const std::pair<const char*, const char*> kConfigDocs[] = {
+    {"sensor_height", "Height of the optical centre above the floor [m], > 0 (default 1.1)"},
+    {"sensor_pitch", "Static tilt of the sensor on the base [rad], + looks down (default 0)"},
+    {"sensor_roll", "Static roll of the sensor on the base [rad], + right side down (default 0)"},
+    {"ceiling_height", "Height of the ceiling plane above the floor [m], > sensor_height (default 2)"},
+    {"max_depth", "Depth of 8-bit value 255 [m] for 8-bit normalised input (default 12)"},
+    {"geometry", "Plane prediction: 'exact' (pinhole ray/plane, default) or 'thesis' (eq 4.10-4.18)"},
+    {"projection", "Pixel to beam: 'horizontal' (range in the gravity-aligned frame, default) or 'column'"},
+    {"open_kernel_size", "Opening kernel size [px]: 0 or 1 = off, odd 3..31 (default 3)"},
+    {"open_kernel_shape", "Opening kernel shape: 'rect' (default), 'cross' or 'ellipse'"},
+    {"threshold_curve", "t(d) control points [(depth m, threshold m), ...], or 'd:t, ...' text; depths increasing, "
+                        "thresholds non-decreasing (default: the Kinect v2 curve)"},
+    {"range_min", "Shorter beams are reported as -Inf (REP 117) [m] (default 0.1)"},
+    {"range_max", "Longer beams are reported as +Inf [m], > range_min (default 10)"},
+    {"scan_beams", "Number of beams [-]; 0 = the image width (default)"},
+    {"scan_fov", "Angular width of the scan [rad], centred on forward; 0 = the camera's (default)"},
+    {"surface_band", "Beam range: 0 = nearest kept pixel (default); > 0 = mean of the beam's ranges within "
+                     "surface_band * t(r) of its nearest [-], 0..10"},
+    {"cliff_scan", "Fill Result.cliff_ranges: nearest below-floor pixel per beam (default True)"},
+    {"cliff_in_scan", "Also put below-floor beams into the scan as obstacles (default False)"},
+    {"cliff_min_pixels", "Below-floor pixels a beam needs before it reports a cliff [px], >= 1 (default 3)"},
+    {"confidence_window", "Ranges in each beam's rolling mean, this one included [frames] (default 5)"},
+    {"confidence_distance", "d_threshold of eq 4.23: distance from the mean at which intensity is 0 [m] (default 0.3)"},
+    {"min_intensity", "Intensity at or below which a filtered beam becomes NaN [-], 0..1 (default 0.2)"},
+    {"intensity_filter", "NaN the finite beams with intensity <= min_intensity (default False)"},
+    {"refine_floor", "Correct the pose from the frame's own floor before predicting the planes (default True)"},
+    {"floor_max_height_error", "Largest correction of the sensor height by the floor fit [m] (default 0.08)"},
+    {"floor_max_pitch_error", "Largest correction of the pitch by the floor fit [rad] (default 0.035)"},
+    {"floor_max_roll_error", "Largest correction of the roll by the floor fit [rad] (default 0.035)"},
+    {"floor_min_pixels", "Fewest image pixels on the fitted floor to accept the fit [px] (default 4000)"},
+    {"floor_learn_time", "Time constant of the learned floor correction [s]; 0 = learn nothing (default 2)"},
+    {"num_threads", "OpenMP threads for one frame [-]; 0 = OpenMP's default (default 0)"},
+};
+
+/** Depth in float32 is metres: an image whose valid pixels have a median above this is plainly millimetres. */
+constexpr float kMillimetreMedian = 100.0f;
+
+/** @throw py::value_error for a float32 depth image that is plainly millimetres (median of its valid pixels,
+ *  on a subsample, above kMillimetreMedian). */
+void refuseMillimetreFloats(const cv::Mat& m)
+{
+  if (m.type() != CV_32FC1)
+    return;
+  std::vector<float> v;
+  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(m.total()) / 4096.0)));
+  for (int r = 0; r < m.rows; r += step)
+  {
+    const float* row = m.ptr<float>(r);
+    for (int u = 0; u < m.cols; u += step)
+      if (row[u] > 0.0f && std::isfinite(row[u]))
+        v.push_back(row[u]);
+  }
+  if (v.empty())
+    return;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  const float median = v[v.size() / 2];
+  if (median > kMillimetreMedian)
+  {
+    std::ostringstream s;
+    s << "depth: float32 with a median of " << median << " over its valid pixels: that is millimetres, not metres "
+      << "(a float32 depth image is in metres: divide it by 1000, or pass the uint16 millimetres as they are)";
+    throw py::value_error(s.str());
+  }
+}
+
+std::string describeResult(const PyResult& r)
+{
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  const auto shape = r.depth.request().shape;
+  const py::array_t<float>& ranges = r.ranges;
+  const float* a = ranges.data();
+  int finite = 0;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (py::ssize_t i = 0; i < ranges.size(); ++i)
+    if (std::isfinite(a[i]))
+    {
+      ++finite;
+      nearest = std::min(nearest, a[i]);
+    }
+  int cliffs = 0;
+  for (py::ssize_t i = 0; i < r.cliff_ranges.size(); ++i)
+    cliffs += std::isfinite(r.cliff_ranges.data()[i]) ? 1 : 0;
+  double total = 0.0;
+  for (const auto& item : r.counts)
+    total += py::cast<double>(item.second);
+  s << "Result(" << shape[1] << "x" << shape[0] << " " << std::string(py::str(r.depth.dtype())) << ", "
+    << ranges.size() << " beams: " << finite << " finite";
+  if (finite)
+    s << std::setprecision(2) << ", nearest " << nearest << " m";
+  s << ", " << cliffs << " cliff; pixels";
+  for (const auto& item : r.counts)
+    s << " " << std::string(py::str(item.first)) << " " << std::setprecision(1)
+      << (total > 0 ? 100.0 * py::cast<double>(item.second) / total : 0.0) << " %";
+  s << "; " << std::setprecision(3) << py::cast<double>(r.times["total"]) << " ms)";
+  return s.str();
+}
+
 const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
 
 template <typename F>
@@ -178,6 +281,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
 {
   py::object keep;
   cv::Mat in = asMat(depth, "depth", keep);
+  refuseMillimetreFloats(in);
   PyResult res;
   // Outputs are fresh numpy arrays; the core writes straight into them.
   py::dtype dt = py::reinterpret_borrow<py::array>(keep).dtype();
@@ -306,11 +410,23 @@ PYBIND11_MODULE(_core, m)
   py::class_<Config>(m, "Config", "Pipeline parameters; field names are the ROS parameter names (SI units).")
       .def(py::init([](const py::kwargs& kw) {
              Config c;
+             // sensor_model first: its fields are what the preset says, unless given explicitly.
+             if (kw.contains("sensor_model"))
+             {
+               std::vector<std::string> given;
+               for (const auto& item : kw)
+                 given.push_back(py::cast<std::string>(item.first));
+               applySensorModel(py::cast<std::string>(kw["sensor_model"]), c, given);
+             }
              for (const auto& item : kw)
-               setConfigField(c, py::cast<std::string>(item.first), item.second);
+               if (py::cast<std::string>(item.first) != "sensor_model")
+                 setConfigField(c, py::cast<std::string>(item.first), item.second);
              c.validate();
              return c;
-           }))
+           }),
+           "Config(**fields): the defaults with these fields changed (names as the ROS parameters); "
+           "sensor_model=NAME first applies that sensor's preset (threshold_curve, range_max, cliff_min_pixels), "
+           "which fields given explicitly override.")
       .def_readwrite("sensor_height", &Config::sensor_height)
       .def_readwrite("sensor_pitch", &Config::sensor_pitch)
       .def_readwrite("sensor_roll", &Config::sensor_roll)
@@ -376,6 +492,11 @@ PYBIND11_MODULE(_core, m)
         return s + ")";
       });
 
+  {
+    const py::object fields = m.attr("Config").attr("__dict__");
+    for (const auto& [name, doc] : kConfigDocs)
+      fields[name].attr("__doc__") = doc;
+  }
   py::class_<SensorPose>(m, "SensorPose",
                          "The sensor's pose relative to the floor: height [m], pitch [rad, + looks down], roll [rad, + "
                          "right side down]. Unpacks as (height, pitch, roll).")
@@ -440,7 +561,8 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
       .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
       .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
-      .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)");
+      .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)")
+      .def("__repr__", &describeResult);
 
   py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
       .def(py::init<const Camera&, const Config&>(), py::arg("camera"), py::arg("config"))
@@ -547,8 +669,109 @@ PYBIND11_MODULE(_core, m)
         setConfigField(c, "threshold_curve", curve);
         return evaluateCurve(c.threshold_curve, depth);
       },
-      py::arg("curve"), py::arg("depth"), "t(depth) [m] by piecewise-linear interpolation.");
+      py::arg("curve"), py::arg("depth"),
+      "t(depth) [m] of a threshold curve ('d:t, ...' text or (depth, threshold) pairs) by piecewise-linear "
+      "interpolation, flat beyond the ends; depth may also be an array of depths [m].");
+  m.def(
+      "evaluate_curve",
+      [](const py::object& curve, const py::array_t<double, py::array::forcecast>& depths) {
+        Config c;
+        setConfigField(c, "threshold_curve", curve);
+        py::array_t<double> out(depths.request().shape);
+        const double* in = depths.data();
+        double* o = out.mutable_data();
+        for (py::ssize_t i = 0; i < depths.size(); ++i)
+          o[i] = evaluateCurve(c.threshold_curve, in[i]);
+        return out;
+      },
+      py::arg("curve"), py::arg("depth"));
   m.def("default_threshold_curve", []() { return formatThresholdCurve(defaultThresholdCurve()); });
+
+  m.def(
+      "sensor_models", []() {
+        py::list out;
+        for (const SensorModel& sm : sensorModels())
+          out.append(sm.name);
+        return out;
+      },
+      "Names of the sensor presets (sensor_model), the default first.");
+  m.def(
+      "sensor_model",
+      [](const std::string& name) {
+        const SensorModel& sm = sensorModel(name);
+        py::dict d;
+        d["name"] = sm.name;
+        d["description"] = sm.description;
+        d["source"] = sm.source;
+        d["sigma0"] = sm.noise.sigma0;
+        d["quad"] = sm.noise.quad;
+        d["z0"] = sm.noise.z0;
+        d["step2"] = sm.noise.step2;
+        d["k"] = sm.noise.k;
+        d["steps"] = sm.noise.steps;
+        d["margin"] = sm.noise.margin;
+        d["threshold_curve"] = formatThresholdCurve(sm.thresholdCurve());
+        d["range_max"] = sm.range_max;
+        d["cliff_min_pixels"] = sm.cliffMinPixels();
+        d["camera"] = sm.camera;
+        d["driver"] = sm.driver;
+        d["camera_ns"] = sm.camera_ns;
+        d["image"] = sm.image;
+        const std::string ns = sm.camera_ns.empty() ? "" : "/" + sm.camera_ns;
+        d["depth_topic"] = ns + "/" + sm.image;
+        d["info_topic"] = ns + "/" + sm.image.substr(0, sm.image.rfind('/') + 1) + "camera_info";
+        return d;
+      },
+      py::arg("name"),
+      "A sensor preset as a dict: its noise model (sigma(z) = sigma0 + quad (z - z0)^2 [m], depth step step2 z^2, "
+      "t(z) = margin + k sigma + steps * step), threshold_curve, range_max [m], cliff_min_pixels, typical camera, "
+      "driver, camera_ns, image, depth_topic and info_topic. ValueError naming the valid names.");
+  m.def(
+      "sensor_sigma",
+      [](const std::string& name, const py::object& z) {
+        const NoiseModel noise = sensorModel(name).noise;
+        return py::vectorize([noise](double d) { return noise.sigma(d); })(z);
+      },
+      py::arg("name"), py::arg("z"), "The random depth error sigma(z) [m] of a sensor preset at depth z [m] (arrays too).");
+
+  m.def("is_supported_depth_encoding", &isSupportedDepthEncoding, py::arg("encoding"),
+        "True for the depth encodings the pipeline reads: 8UC1, mono8, 16UC1, mono16, 32FC1.");
+  m.def(
+      "depth_from_buffer",
+      [](const std::string& encoding, std::uint32_t width, std::uint32_t height, std::uint32_t step,
+         bool is_bigendian, const py::buffer& data) {
+        const py::buffer_info info = data.request();
+        ImageBuffer image{encoding, width, height, step, is_bigendian, static_cast<const std::uint8_t*>(info.ptr),
+                          static_cast<std::size_t>(info.size * info.itemsize)};
+        if (info.ndim != 1 && info.size > 0)
+          throw py::value_error("data: expected a flat buffer of bytes");
+        cv::Mat buffer;
+        return matToArray(depthFromBuffer(image, buffer));
+      },
+      py::arg("encoding"), py::arg("width"), py::arg("height"), py::arg("step"), py::arg("is_bigendian"),
+      py::arg("data"),
+      "A depth image from a sensor_msgs/Image's fields (data: bytes or a uint8 array) as a new 2-D array: uint8 "
+      "for 8UC1/mono8, uint16 for 16UC1/mono16 (mm), float32 for 32FC1 (m), in the host's byte order. ValueError "
+      "for another encoding, empty data, a step below width * pixel size or data shorter than step * height, "
+      "quoting the values (the ROS node's checks).");
+  m.def(
+      "camera_from_intrinsics",
+      [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id) {
+        std::array<double, 9> k{};
+        std::size_t n = 0;
+        for (const auto& v : K)
+        {
+          if (n == 9)
+            throw py::value_error("K: expected 9 values (row-major 3x3), got more");
+          k[n++] = py::cast<double>(v);
+        }
+        if (n != 9)
+          throw py::value_error("K: expected 9 values (row-major 3x3), got " + std::to_string(n));
+        return cameraFromIntrinsics(width, height, k, frame_id);
+      },
+      py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "",
+      "The camera of a sensor_msgs/CameraInfo's width, height and K (fx = K[0], fy = K[4], cx = K[2], cy = K[5]); "
+      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values (the ROS node's checks).");
 
   m.def(
       "render_scene",

@@ -10,9 +10,47 @@
 #include <tf2/LinearMath/Quaternion.h>
 
 #include "kinect_pipeline/ros/conversions.h"
+#include "kinect_pipeline/sensor_model.h"
+#include "kinect_pipeline/threshold_curve.h"
 
 namespace kinect_pipeline
 {
+namespace
+{
+/** ~sensor_model: the preset's fields onto the parameter server where they are not set there (an explicit
+ *  threshold_curve, range_max or cliff_min_pixels wins), before the reconfigure server reads them. */
+void applySensorModelParameters(ros::NodeHandle& pnh, const std::string& who)
+{
+  std::string name;
+  if (!pnh.getParam("sensor_model", name) || name.empty())
+    return;
+  Config preset;
+  try
+  {
+    applySensorModel(name, preset);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    ROS_FATAL("%s: %s; not starting", who.c_str(), e.what());
+    throw;
+  }
+  std::string set;
+  for (const std::string& field : sensorModelFields())
+  {
+    if (pnh.hasParam(field))
+      continue;
+    if (field == "threshold_curve")
+      pnh.setParam(field, formatThresholdCurve(preset.threshold_curve));
+    else if (field == "range_max")
+      pnh.setParam(field, preset.range_max);
+    else if (field == "cliff_min_pixels")
+      pnh.setParam(field, preset.cliff_min_pixels);
+    set += (set.empty() ? "" : ", ") + field;
+  }
+  ROS_INFO("%s: sensor_model %s (%s): %s from the preset", who.c_str(), name.c_str(),
+           sensorModel(name).description.c_str(), set.empty() ? "nothing" : set.c_str());
+}
+}  // namespace
 
 const char* toString(DropReason r)
 {
@@ -104,6 +142,7 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   diagnostics_.setHardwareID(name_);
   diagnostics_.add(input_freq_);
   diagnostics_.add("processing", this, &KinectPipelineRos::diagnose);
+  applySensorModelParameters(pnh_, name_);
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<KinectPipelineConfig>>(reconfigure_mutex_, pnh_);
   reconfigure_->setCallback([this](KinectPipelineConfig& c, uint32_t level) { reconfigureCb(c, level); });
   // roscpp does not register again with a restarted master: this does, for the whole process.

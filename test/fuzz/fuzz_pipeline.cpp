@@ -240,7 +240,7 @@ void run(FuzzedDataProvider& in)
     FrameResult r;
     const cv::Mat depth(24, 32, CV_16UC1, cv::Scalar(1500));
     p.process(depth, sp, r);
-    checkResult(r, depth, p);
+    checkResult(r, depth, p, sp);
     return;
   }
   if (what == 2)

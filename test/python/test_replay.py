@@ -133,8 +133,9 @@ def test_missing_topics_are_named(tmp_path: Path, bag: Path) -> None:
 
 
 def test_frames_without_tf_fall_back_or_are_skipped(bag: Path, tmp_path: Path) -> None:
-    r = replay(bag, tmp_path / "s.bag", ReplayOptions(base_frame="nowhere", pose_fallback="skip"), show_progress=False)
-    assert r.skipped_no_pose == FRAMES and r.processed == 0
+    with pytest.raises(ReplayError, match=rf"no frame of .* could be processed, of {FRAMES}: .*not connected.*"):
+        replay(bag, tmp_path / "s.bag", ReplayOptions(base_frame="nowhere", pose_fallback="skip"), show_progress=False)
+    assert not list(tmp_path.iterdir()), "a replay that processed nothing writes nothing"
     r = replay(bag, tmp_path / "t.bag", ReplayOptions(base_frame="nowhere"), show_progress=False)
     assert r.pose_fallback == FRAMES and r.processed == FRAMES
     assert any("not connected" in p for p in r.problems)

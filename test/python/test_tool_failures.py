@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import os
-import resource
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+from clitool import cli
 
 pytest.importorskip("rosbags")
 
@@ -21,21 +18,6 @@ def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("bags") / "seq.bag"
     write_sequence_bag(path, frames=6, encoding="16UC1", seed=9)
     return path
-
-
-def cli(*args: str, fsize: int | None = None) -> subprocess.CompletedProcess[str]:
-    def limit() -> None:
-        if fsize is not None:
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead
-            resource.setrlimit(resource.RLIMIT_FSIZE, (fsize, fsize))
-
-    return subprocess.run(
-        [sys.executable, "-m", "kinect_pipeline.cli", *args],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        preexec_fn=limit,
-    )
 
 
 @pytest.mark.parametrize("content", [b"", b"#ROSBAG V2.0\n", b"not a bag at all" * 100])

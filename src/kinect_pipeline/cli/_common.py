@@ -1,0 +1,180 @@
+"""What every command shares: the help format, the options several commands take (``--param``, ``--intrinsics``,
+frames, ``--quiet``) with their checks, and the one-line error every known failure becomes."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from ..outputs import Named, check_outputs
+
+COMMAND = "kinect-pipeline"
+
+
+class ToolError(Exception):
+    """A known failure: printed as one line, exit status 1."""
+
+
+class Formatter(argparse.RawDescriptionHelpFormatter):
+    """Help that states each option's default (unless its text already does)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        d = action.default
+        if "default" in text or d is None or d is False or d == argparse.SUPPRESS or action.required:
+            return text
+        return text + " (default: %(default)s)"
+
+
+def add_quiet(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quiet", action="store_true", help="no progress bar (default: a bar with frames/s on stderr)")
+
+
+# -- --param NAME=VALUE ---------------------------------------------------------------------------------------------
+
+
+def add_param(p: argparse.ArgumentParser, what: str = "a core Config field") -> None:
+    p.add_argument(
+        "--param",
+        action="append",
+        metavar="NAME=VALUE",
+        help=f"{what}, e.g. sensor_height=1.1 (SI units: m, rad; repeat for more; default: the Config's defaults)",
+    )
+
+
+def config_fields() -> list[str]:
+    """What --param takes: the Config fields, and sensor_model (a preset of some of them)."""
+    from .. import _core
+
+    return [*_core.Config().to_dict(), "sensor_model"]
+
+
+def parse_params(items: Iterable[str] | None) -> dict[str, Any]:
+    """``NAME=VALUE`` items as Config fields (values as JSON: numbers, true/false, or plain text), each checked by
+    the core; a bad item raises :class:`ToolError` naming it and the valid fields."""
+    from .. import _core
+
+    out: dict[str, Any] = {}
+    fields = config_fields()
+    for item in items or []:
+        name, eq, text = item.partition("=")
+        name = name.strip()
+        if not eq or not name or not text.strip():
+            raise ToolError(f"--param {item!r}: expected NAME=VALUE with NAME one of {', '.join(fields)}")
+        if name not in fields:
+            raise ToolError(f"--param {item}: no Config field {name!r}; the fields are {', '.join(fields)}")
+        try:
+            value = json.loads(text)
+        except json.JSONDecodeError:
+            value = text
+        try:
+            _core.Config(**{name: value})
+        except (TypeError, ValueError, RuntimeError) as exc:
+            raise ToolError(f"--param {item}: {exc}") from exc
+        out[name] = value
+    return out
+
+
+# -- --sensor-model NAME, --intrinsics FX FY CX CY -----------------------------------------------------------------
+
+
+def add_sensor_model(p: argparse.ArgumentParser, what: str) -> None:
+    from .. import _core
+
+    p.add_argument(
+        "--sensor-model",
+        choices=_core.sensor_models(),
+        help=f"the depth camera's preset: {what} (default: none: kinect_v2's curve, no intrinsics)",
+    )
+
+
+def with_sensor_model(config: dict[str, Any], name: str | None) -> dict[str, Any]:
+    """Config fields with --sensor-model NAME added (explicit --param fields still win over the preset's)."""
+    if name and "sensor_model" not in config:
+        return {**config, "sensor_model": name}
+    return config
+
+
+def frames_camera(args: argparse.Namespace, width: int, height: int) -> Any:
+    """The camera of frames: --intrinsics, else the --sensor-model preset's typical intrinsics at its size."""
+    from .. import _core
+
+    if args.intrinsics:
+        return camera(args.intrinsics, width, height)
+    name = getattr(args, "sensor_model", None)
+    if not name:
+        raise ToolError("depth frames need --intrinsics FX FY CX CY (or --sensor-model NAME for typical ones)")
+    cam = _core.sensor_model(name)["camera"]
+    if (cam.width, cam.height) != (width, height):
+        raise ToolError(
+            f"--sensor-model {name}: its typical intrinsics are for {cam.width}x{cam.height}, the frames are "
+            f"{width}x{height}: give --intrinsics FX FY CX CY"
+        )
+    return cam
+
+
+def add_intrinsics(p: argparse.ArgumentParser, extra: str = "") -> None:
+    p.add_argument(
+        "--intrinsics",
+        nargs=4,
+        type=float,
+        metavar=("FX", "FY", "CX", "CY"),
+        help="the depth camera's focal lengths and principal point [px], as K of its camera_info"
+        + (extra or " (default: none; required)"),
+    )
+
+
+def camera(intrinsics: list[float], width: int, height: int) -> Any:
+    """The core's camera for ``--intrinsics`` at the frames' size; a bad value raises ToolError naming the option."""
+    from .. import _core
+
+    try:
+        return _core.Camera(width, height, *intrinsics)
+    except (ValueError, TypeError) as exc:
+        values = " ".join(f"{v:g}" for v in intrinsics)
+        raise ToolError(f"--intrinsics {values}: {exc}") from exc
+
+
+# -- depth frames ---------------------------------------------------------------------------------------------------
+
+
+def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positional: bool = True) -> None:
+    """The frames (positional ``files``, unless given otherwise), --depth-scale, --intrinsics and --sensor-model."""
+    if positional:
+        p.add_argument(
+            "files",
+            nargs="*",
+            metavar="FRAME",
+            help=f"{what}: depth frames or folders of them (16-bit PNG/PGM in mm unless --depth-scale, 8-bit PNG "
+            "normalised by --max-depth, .npy float metres)",
+        )
+    p.add_argument(
+        "--depth-scale",
+        type=float,
+        default=0.001,
+        help="metres per unit of 16-bit frames [m] (TUM and slambook2 ch7: 0.0002)",
+    )
+    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_sensor_model(p, sensor_use)
+
+
+def frame_files(items: Iterable[str]) -> list[Path]:
+    """The frames named: files as given, folders as their depth frames in name order."""
+    from ..calibrate import frame_paths
+
+    try:
+        return frame_paths([Path(p) for p in items])
+    except ValueError as exc:
+        raise ToolError(str(exc)) from exc
+
+
+def check(inputs: Iterable[Path | Named], outputs: Iterable[Named | None], folders: Iterable[Named] = ()) -> None:
+    """Before anything is written: no output may be an input (see :func:`kinect_pipeline.outputs.check_outputs`)."""
+    check_outputs(inputs, [o for o in outputs if o is not None and str(o.path)], folders)
+
+
+def named(option: str, value: str | None) -> Named | None:
+    return Named(Path(value), option) if value else None

@@ -1,0 +1,48 @@
+"""kinect-pipeline bench: the C++ core benchmark."""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+from pathlib import Path
+
+from ._common import ToolError
+
+NAME = "bench"
+HELP = "time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--frames", type=int, default=300, help="frames per measurement [frames]")
+    p.add_argument("--kernel", type=int, default=3, help="opening kernel size [px]")
+    p.add_argument("--projection", choices=["horizontal", "column"], default="horizontal", help="scan projection")
+    p.add_argument("--threads", help="comma-separated thread counts, e.g. 1,2,4,8 [threads] (default: 1,2)")
+    p.add_argument("--encodings", help="comma-separated subset of 8UC1,16UC1,32FC1 (default: all three)")
+    p.add_argument("--surface-band", type=float, default=0.0, help="the pipeline's surface_band [-]")
+    p.add_argument("--markdown", action="store_true", help="print a Markdown table (default: plain text)")
+
+
+def bench_binary() -> Path:
+    from .. import _core
+
+    # devel or install space: <prefix>/lib/python3/dist-packages/kinect_pipeline/_core.so
+    #                      -> <prefix>/lib/kinect_pipeline/kinect_pipeline_bench
+    here = Path(_core.__file__).resolve()
+    cand = here.parents[3] / "kinect_pipeline" / "kinect_pipeline_bench"
+    if cand.exists():
+        return cand
+    raise ToolError(f"kinect_pipeline_bench not found next to {here}: build the package first")
+
+
+def run(args: argparse.Namespace) -> int:
+    cmd = [str(bench_binary()), "--frames", str(args.frames), "--kernel", str(args.kernel)]
+    cmd += ["--projection", args.projection]
+    if args.threads:
+        cmd += ["--threads", args.threads]
+    if args.encodings:
+        cmd += ["--encodings", args.encodings]
+    if args.surface_band:
+        cmd += ["--surface-band", str(args.surface_band)]
+    if args.markdown:
+        cmd.append("--markdown")
+    return subprocess.call(cmd)

@@ -1,0 +1,109 @@
+"""The command line: one module per command, help with unit and default for every option, one-line errors."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+
+import pytest
+
+import kinect_pipeline as kp
+from kinect_pipeline.cli import COMMANDS, build_parser, main
+
+
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    p = build_parser()
+    action = next(a for a in p._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_one_module_per_command() -> None:
+    subs = _subparsers()
+    assert sorted(subs) == sorted(m.NAME for m in COMMANDS)
+    for mod in COMMANDS:
+        assert mod.__name__ == "kinect_pipeline.cli." + mod.NAME.replace("-", "_")
+        func = subs[mod.NAME].get_default("func")
+        assert func.__module__ == mod.__name__
+        lines = Path(mod.__file__).read_text().count("\n")
+        assert lines < 200, f"{mod.__name__} is {lines} lines: the work belongs in the library"
+
+
+UNIT = re.compile(r"\[[^\]]+\]")
+
+
+@pytest.mark.parametrize("command", sorted(m.NAME for m in COMMANDS))
+def test_every_option_says_what_it_is_its_unit_and_default(command: str) -> None:
+    sub = _subparsers()[command]
+    text = sub.format_help()
+    for action in sub._actions:
+        if isinstance(action, argparse._HelpAction):
+            continue
+        name = "/".join(action.option_strings) or action.dest
+        assert action.help and len(action.help) > 10, f"{command} {name}: no help"
+        helptext = sub._get_formatter()._expand_help(action)
+        if action.option_strings and not action.required:
+            assert "default" in helptext, f"{command} {name}: no default stated: {helptext!r}"
+        if action.type in (int, float):
+            assert UNIT.search(helptext), f"{command} {name}: no [unit] in {helptext!r}"
+    assert "%(" not in text
+
+
+def test_top_level_help_is_plain_text(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    out = capsys.readouterr().out
+    for markup in ("``", ":func:", ":class:", ".. "):
+        assert markup not in out
+    for mod in COMMANDS:
+        assert mod.NAME in out
+
+
+@pytest.mark.parametrize(
+    ("item", "expect"),
+    [
+        ("sensor_heigth=1.1", "no Config field 'sensor_heigth'; the fields are "),
+        ("sensor_height", "expected NAME=VALUE with NAME one of "),
+        ("sensor_height=", "expected NAME=VALUE with NAME one of "),
+        ("=1.1", "expected NAME=VALUE with NAME one of "),
+        ("sensor_height=-1", "--param sensor_height=-1: "),
+        ("projection=sideways", "--param projection=sideways: "),
+    ],
+)
+def test_bad_param_is_one_line_naming_the_valid_fields(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], item: str, expect: str
+) -> None:
+    rc = main(["replay", str(tmp_path / "none.bag"), "-o", str(tmp_path / "o.bag"), "--param", item, "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert rc == 1 and len(err.splitlines()) == 1, err
+    assert expect in err, err
+    if "field" in expect or "NAME one of" in expect:
+        for f in ("sensor_height", "threshold_curve", "cliff_scan", "num_threads"):
+            assert f in err
+    assert "Traceback" not in err and not (tmp_path / "o.bag").exists()
+
+
+def test_a_good_param_reaches_the_core(tmp_path: Path) -> None:
+    from kinect_pipeline.cli._common import parse_params
+
+    got = parse_params(["sensor_height=0.8", "intensity_filter=true", "threshold_curve=0.5:0.05, 12:1.0"])
+    assert got == {"sensor_height": 0.8, "intensity_filter": True, "threshold_curve": "0.5:0.05, 12:1.0"}
+    assert kp.Config(**got).sensor_height == 0.8
+
+
+@pytest.mark.parametrize(
+    ("intr", "expect"),
+    [(["0", "365", "255", "211"], "fx"), (["365", "-3", "255", "211"], "fy"), (["365", "365", "nan", "211"], "cx")],
+)
+def test_bad_intrinsics_name_the_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], intr: list[str], expect: str
+) -> None:
+    import numpy as np
+
+    f = tmp_path / "f.npy"
+    np.save(f, np.full((424, 512), 2.0, np.float32))
+    for cmd in ("calibrate", "curve"):
+        rc = main([cmd, str(f), "--intrinsics", *intr])
+        err = capsys.readouterr().err.strip()
+        assert rc == 1 and len(err.splitlines()) == 1, err
+        assert err.startswith(f"kinect-pipeline {cmd}: --intrinsics {' '.join(intr)}: ") and expect in err, err

@@ -1,0 +1,218 @@
+"""No tool ever writes over one of its inputs; outputs appear whole or not at all; errors name the user's paths and
+a failed run leaves no folder behind (kinect_pipeline.outputs, used by every command)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from clitool import cli
+
+import kinect_pipeline as kp
+from kinect_pipeline.outputs import OutputError, atomic_file, atomic_new, check_outputs, output_folder
+
+cv2 = pytest.importorskip("cv2")
+pytest.importorskip("rosbags")
+
+REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"
+CAM = kp.kinect_v2_camera()
+INTR = [str(CAM.fx), str(CAM.fy), str(CAM.cx), str(CAM.cy)]
+
+
+def sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 16-bit PNG of a rendered floor the calibration finds."""
+    from kinect_pipeline.scenes import lab_scene, render_frame
+
+    path = tmp_path_factory.mktemp("frames") / "F.png"
+    assert cv2.imwrite(str(path), render_frame(CAM, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=3).depth)
+    return path
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from kinect_pipeline.bag import write_sequence_bag
+
+    path = tmp_path_factory.mktemp("bags") / "B.bag"
+    write_sequence_bag(path, frames=3, encoding="16UC1", seed=2)
+    return path
+
+
+def _refused(r: subprocess.CompletedProcess[str], *paths: object) -> None:
+    assert r.returncode == 1, r.stdout + r.stderr
+    line = r.stderr.strip()
+    assert len(line.splitlines()) == 1, line
+    assert "never overwrites its inputs" in line or "never writes into its inputs" in line, line
+    for p in paths:
+        assert str(p) in line, (p, line)
+
+
+CASES = {
+    # what the issue names
+    "calibrate --plot F": lambda f, b, t: (["calibrate", str(f), "--intrinsics", *INTR, "--plot", str(f)], f),
+    "curve -o F": lambda f, b, t: (["curve", str(f), "--intrinsics", *INTR, "-o", str(f)], f),
+    "curve --plot F": lambda f, b, t: (["curve", str(f), "--intrinsics", *INTR, "--plot", str(f)], f),
+    "calibrate --bag B --plot B": lambda f, b, t: (["calibrate", "--bag", str(b), "--plot", str(b)], b),
+    "report B -o B": lambda f, b, t: (["report", str(b), "-o", str(b), "--quiet"], b),
+    "replay B -o B": lambda f, b, t: (["replay", str(b), "-o", str(b), "--quiet"], b),
+    # and more
+    "curve --compare-plot F": lambda f, b, t: (
+        ["curve", str(f), "--intrinsics", *INTR, "--compare", "--compare-plot", str(f)],
+        f,
+    ),
+    "calibrate folder --plot F": lambda f, b, t: (
+        ["calibrate", str(f.parent), "--intrinsics", *INTR, "--plot", str(f)],
+        f,
+    ),
+    "report B -o folder/.. (B named as a report file)": lambda f, b, t: (
+        ["report", str(t / "index.html"), "-o", str(t), "--quiet"],
+        t / "index.html",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_no_command_writes_over_its_input(frame: Path, bag: Path, tmp_path: Path, case: str) -> None:
+    victim_dir = tmp_path / "victims"
+    victim_dir.mkdir()
+    (victim_dir / "index.html").write_bytes(bag.read_bytes())  # a bag that happens to share a report file's name
+    args, victim = CASES[case](frame, bag, victim_dir)
+    before = sha(victim)
+    r = cli(*args)
+    _refused(r, victim)
+    assert sha(victim) == before, "the input changed"
+
+
+@pytest.mark.parametrize("kind", ["symlink", "hardlink"])
+def test_links_to_an_input_are_refused_naming_both(frame: Path, bag: Path, tmp_path: Path, kind: str) -> None:
+    for inp, make in ((frame, "calibrate"), (bag, "report")):
+        link = tmp_path / f"{kind}-{inp.name}"
+        link.unlink(missing_ok=True)
+        (link.symlink_to if kind == "symlink" else link.hardlink_to)(inp)
+        before = sha(inp)
+        if make == "calibrate":
+            r = cli("calibrate", str(frame), "--intrinsics", *INTR, "--plot", str(link))
+        else:
+            r = cli("replay", str(bag), "-o", str(link), "--quiet")
+        _refused(r, inp, link)
+        assert sha(inp) == before
+
+
+def test_an_output_inside_an_input_folder_is_refused(tmp_path: Path, frame: Path) -> None:
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    (frames / "a.png").write_bytes(frame.read_bytes())
+    r = cli("calibrate", str(frames), "--intrinsics", *INTR, "--plot", str(frames / "plot.png"))
+    _refused(r, frames)
+    assert sorted(p.name for p in frames.iterdir()) == ["a.png"]
+
+
+def test_a_missing_output_folder_is_named_before_any_work(frame: Path, tmp_path: Path) -> None:
+    r = cli("calibrate", str(frame), "--intrinsics", *INTR, "--plot", str(tmp_path / "no" / "p.png"))
+    assert r.returncode == 1 and f"its folder {tmp_path / 'no'} does not exist" in r.stderr, r.stderr
+    assert r.stdout == "" and not (tmp_path / "no").exists()
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["curve", "{frame}", "--intrinsics", *INTR, "-o", "{out}/c.yaml", "--plot", "{out}/c.png"],
+        ["calibrate", "{frame}", "--intrinsics", *INTR, "--plot", "{out}/c.png"],
+    ],
+    ids=["curve", "calibrate"],
+)
+def test_a_failed_write_names_the_users_path_and_leaves_nothing(frame: Path, tmp_path: Path, args: list[str]) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    r = cli(*(a.format(frame=frame, out=out) for a in args), fsize=2000)  # the PNG cannot be written
+    assert r.returncode == 1, r.stdout
+    line = r.stderr.strip().splitlines()[-1]
+    assert f"cannot write {out / 'c.png'}: File too large" in line, line
+    assert not list(out.iterdir()) or [p.name for p in out.iterdir()] == ["c.yaml"], "no temporary file left"
+
+
+def test_a_failed_report_leaves_no_folder_behind(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.bag"
+    bad.write_bytes(b"#ROSBAG V2.0\n" + bytes(100))
+    out = tmp_path / "new" / "deeper" / "report"
+    r = cli("report", str(bad), "-o", str(out), "--quiet")
+    assert r.returncode == 1 and str(bad) in r.stderr
+    assert not (tmp_path / "new").exists()
+
+
+def test_a_full_disk_on_replay_names_the_output_not_its_partial_file(bag: Path, tmp_path: Path) -> None:
+    out = tmp_path / "o.bag"
+    r = cli("replay", str(bag), "-o", str(out), "--quiet", fsize=300_000)
+    assert r.returncode == 1
+    line = r.stderr.strip()
+    assert f"cannot write {out}: File too large" in line and ".partial" not in line, line
+    assert not list(tmp_path.iterdir())
+
+
+# -- the helper itself ------------------------------------------------------------------------------------------
+
+
+def test_atomic_file_appears_whole_or_not_at_all(tmp_path: Path) -> None:
+    target = tmp_path / "x.png"
+    target.write_bytes(b"old")
+    with pytest.raises(RuntimeError), atomic_file(target) as tmp:
+        tmp.write_bytes(b"half")
+        raise RuntimeError("stopped")
+    assert target.read_bytes() == b"old" and sorted(tmp_path.iterdir()) == [target]
+    with atomic_file(target) as tmp:
+        assert tmp.suffix == ".png" and tmp.parent == tmp_path and tmp.name.startswith(".x.png.")
+        tmp.write_bytes(b"new")
+    assert target.read_bytes() == b"new" and sorted(tmp_path.iterdir()) == [target]
+
+
+def test_atomic_new_gives_a_fresh_path_and_renames_folders(tmp_path: Path) -> None:
+    target = tmp_path / "bag2"
+    with atomic_new(target) as tmp:
+        assert not tmp.exists()
+        tmp.mkdir()
+        (tmp / "metadata.yaml").write_text("x")
+    assert (target / "metadata.yaml").read_text() == "x"
+    with pytest.raises(OutputError, match=r"cannot write .*other: disk gone"), atomic_new(tmp_path / "other") as tmp:
+        tmp.mkdir()
+        raise OSError("disk gone")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag2"]
+
+
+def test_output_folder_removes_only_what_it_made(tmp_path: Path) -> None:
+    keep = tmp_path / "keep"
+    keep.mkdir()
+    with pytest.raises(ValueError), output_folder(keep / "a" / "b"):
+        raise ValueError("failed")
+    assert sorted(tmp_path.rglob("*")) == [keep]
+    with output_folder(keep / "a") as d:
+        (d / "f").write_text("x")
+    assert (keep / "a" / "f").exists()
+
+
+def test_check_outputs_compares_resolved_paths(tmp_path: Path) -> None:
+    f = tmp_path / "in.png"
+    f.write_bytes(b"x")
+    os.symlink(f, tmp_path / "l.png")
+    with pytest.raises(OutputError, match=r"through links, both are"):
+        check_outputs([f], [tmp_path / "l.png"])
+    with pytest.raises(OutputError, match="is the input"):
+        check_outputs([tmp_path / "." / "in.png"], [f])
+    check_outputs([f], [tmp_path / "other.png"], [])  # fine
+    if (REAL / "slambook2").exists():
+        with pytest.raises(OutputError, match="inside the input folder"):
+            check_outputs([REAL / "slambook2"], [REAL / "slambook2" / "ch7" / "x.png"])
+
+
+def test_python_m_and_the_script_are_the_same_cli() -> None:
+    r = cli("--help")
+    assert r.returncode == 0 and "usage: kinect-pipeline" in r.stdout
+    assert "``" not in r.stdout and ":func:" not in r.stdout, "no raw RST markup in the top-level help"
+    np.testing.assert_equal(r.stderr, "")
