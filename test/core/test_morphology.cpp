@@ -11,6 +11,7 @@
 #include "kinect_pipeline/encoding.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/scan.h"  // detail::setVectorPaths
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
@@ -34,15 +35,7 @@ cv::Mat randomImage(int rows, int cols, int type, unsigned seed)
   return m;
 }
 
-bool identical(const cv::Mat& a, const cv::Mat& b)
-{
-  if (a.size() != b.size() || a.type() != b.type())
-    return false;
-  for (int r = 0; r < a.rows; ++r)
-    if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0)
-      return false;
-  return true;
-}
+using kp_test::sameBits;
 
 // OpenCV's morphologyEx is the slow, obvious reference; vector: the AVX-512 3x3 path (else the portable loops).
 void checkRect(int type, int ksize, int rows, int cols, bool vector)
@@ -56,7 +49,7 @@ void checkRect(int type, int ksize, int rows, int cols, bool vector)
   cv::Mat got;
   morphOpen(img, got, ksize, KernelShape::kRect, scratch);
   detail::setVectorPaths(was);
-  EXPECT_TRUE(identical(ref, got)) << (vector ? "AVX-512" : "portable") << ", type " << type << ", kernel "
+  EXPECT_TRUE(sameBits(ref, got)) << (vector ? "AVX-512" : "portable") << ", type " << type << ", kernel "
                                    << ksize << ", " << rows << "x" << cols;
 }
 
@@ -98,7 +91,7 @@ TEST(Morphology, OtherShapesUseOpenCV)
     cv::Mat ref, got, scratch;
     cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(5, 5)));
     morphOpen(img, got, 5, shape, scratch);
-    EXPECT_TRUE(identical(ref, got));
+    EXPECT_TRUE(sameBits(ref, got));
   }
 }
 
@@ -142,7 +135,7 @@ void checkErodeMapped(int type, int rows, int cols, bool vector)
     for (int r = 0; r < rows; ++r)
       detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
     detail::setVectorPaths(was);
-    EXPECT_TRUE(identical(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
+    EXPECT_TRUE(sameBits(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
                                      << (vector ? " AVX-512" : " portable");
   }
 }

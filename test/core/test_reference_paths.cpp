@@ -14,6 +14,7 @@
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/synthetic.h"
 #include "test_scenes.h"
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
@@ -66,15 +67,7 @@ bool sameBits(const std::vector<float>& a, const std::vector<float>& b)
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
 }
 
-bool sameBits(const cv::Mat& a, const cv::Mat& b)
-{
-  if (a.size() != b.size() || a.type() != b.type())
-    return false;
-  for (int r = 0; r < a.rows; ++r)
-    if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0)
-      return false;
-  return true;
-}
+using kp_test::sameBits;
 
 // One frame through a fresh pipeline with the given paths (the previous setting restored).
 FrameResult processWith(const Camera& cam, const Config& cfg, const cv::Mat& frame, const Case& c,
