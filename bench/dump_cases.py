@@ -12,7 +12,7 @@ that ``compare`` can say where they differ. ``compare`` prints ``bit-identical: 
 cases and outputs that differ (how many elements, the first one, with values where both sides have arrays) and
 exits 1. A case missing on one side is a difference too.
 
-The matrix (2880 cases, and 96 extra ones): 3 encodings x 4 scenes (lab, boxes, stair, hole of
+The matrix (2880 cases, and 192 extra ones): 3 encodings x 4 scenes (lab, boxes, stair, hole of
 kinect_pipeline.scenes) x 5 poses (two with roll, one told off by centimetres and degrees so that the floor
 refinement moves it) x both projections x both geometries x opening kernels 0, 3, 5 x 1 and 2 threads x
 refine_floor on and off, each case two noisy frames through one Pipeline (the confidence's window holds both), with
