@@ -33,6 +33,9 @@ enum Label : std::uint8_t
   kBelowFloor = 4,    ///< more than t(d) beyond the floor: a hole, a stair down
 };
 constexpr int kNumLabels = 5;
+/** The labels' names, indexed by value: the one list the binding, the tools and the node use. */
+constexpr std::array<const char*, kNumLabels> kLabelNames = {"kept", "invalid", "floor", "above_ceiling",
+                                                             "below_floor"};
 
 /** Wall-clock time of each stage of the last frame [ms]. */
 struct StageTimes
