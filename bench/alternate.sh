@@ -2,7 +2,9 @@
 # Compares core libraries in alternating runs of one bench binary (this machine's speed drifts by tens of percent
 # over minutes: runs side by side meet the same minutes). Each LIBDIR holds a libkinect_pipeline_core.so, e.g. a
 # copy of build/devel/lib/libkinect_pipeline_core.so made at another commit; the bench's RUNPATH gives way to
-# LD_LIBRARY_PATH.
+# LD_LIBRARY_PATH. A LIBDIR that also holds a kinect_pipeline_bench runs that one: a bench binary is compiled
+# against its library's headers, and a library whose classes changed layout (e.g. Pipeline's members) needs the
+# bench built with it (the same bench_core.cpp; the times it prints are measured inside the library).
 #   bench/alternate.sh ROUNDS LIBDIR...      env: ENC (8UC1), THR (1), FRAMES (400), BENCH (the built bench)
 set -euo pipefail
 if [ $# -lt 2 ]; then
@@ -22,8 +24,14 @@ done
 for i in $(seq "$ROUNDS"); do
   echo "round $i/$ROUNDS" >&2
   for d in "$@"; do
-    LD_LIBRARY_PATH=$d "$BENCH" --frames "$FRAMES" --threads "$THR" --encodings "$ENC" |
-      awk -v d="$d" '$1 ~ /^(8UC1|16UC1|32FC1)$/ {print d, $8, $9}'
+    bench=$BENCH
+    [ -x "$d/kinect_pipeline_bench" ] && bench=$d/kinect_pipeline_bench
+    # The markdown table's columns by their names (the plain table's position of a column moves when one is added).
+    LD_LIBRARY_PATH=$d "$bench" --frames "$FRAMES" --threads "$THR" --encodings "$ENC" --markdown |
+      awk -F' *[|] *' -v d="$d" '
+        $2 == "encoding" { for (i = 1; i <= NF; i++) { if ($i == "frame [ms]") f = i; if ($i == "frame / memcpy") x = i } }
+        $2 ~ /^(8UC1|16UC1|32FC1)$/ { if (!f || !x) { print "alternate.sh: no frame columns in the bench output" > "/dev/stderr"; exit 1 }
+                                      print d, $f, $x }'
   done
 done | /usr/bin/python3 -c '
 import collections, statistics, sys

@@ -33,6 +33,9 @@ enum Label : std::uint8_t
   kBelowFloor = 4,    ///< more than t(d) beyond the floor: a hole, a stair down
 };
 constexpr int kNumLabels = 5;
+/** The labels' names, indexed by value: the one list the binding, the tools and the node use. */
+constexpr std::array<const char*, kNumLabels> kLabelNames = {"kept", "invalid", "floor", "above_ceiling",
+                                                             "below_floor"};
 
 /** Wall-clock time of each stage of the last frame [ms]. */
 struct StageTimes
@@ -66,32 +69,27 @@ struct FrameResult
 namespace detail
 {
 /**
- * The threshold table's terms of the proof that the labels of a row without roll are monotone in the pixel value
- * (8- and 16-bit; see ValueProof in pipeline.cpp), over the values below the encoding's no-return value.
+ * The fast paths of the core that a frame can take their plain reference for instead: for tests and checks that
+ * compare the two (each fast path gives the reference's bits, but for the border-crossing binning, whose ranges
+ * may differ where a pixel's centre lies within float rounding of a bin's border). Docs: docs/core_design.md.
  */
-struct ValueTerms
+struct ReferencePaths
 {
-  bool nondecreasing = false;  ///< the table never decreases
-  double gap_min = 0.0;        ///< smallest growth of depth - threshold from one value to the next [m]
-  /// smallest growth of depth - threshold from a value to any value kValueWindow or more above it [m]
-  double gap_window = 0.0;
-  static constexpr int kValueWindow = 4;
-  double d_max = 0.0, t_max = 0.0;  ///< depth and threshold of the largest value [m]
+  bool labels = false;   ///< every row labelled pixel by pixel by the rule (no labelling by value thresholds)
+  bool binning = false;  ///< every row binned by its pixel centres' bearings (no binning from the bins' borders)
+  bool opening = false;  ///< cv::morphologyEx for every opening (no row kernels, no streamed 3x3 opening)
+  /** @return all three on: the reference path. */
+  static ReferencePaths all() { return {true, true, true}; }
 };
-
 /**
- * The fewest values an 8- or 16-bit pixel's raw value must lie above its opened value for the rescue (the raw
- * depth deciding where the opening moved a pixel) to relabel it, when the thresholds of the raw values it may
- * relabel are t or more: pixels nearer than that are not looked at. The rescue needs fl(fl(raw s) - fl(v s)) >
- * t(raw) >= t, and raw - v <= k - 1 gives at most (k - 1 + 4 u no_return) s on the left (u = 2^-24: three roundings
- * of values up to no_return); the float product t / s, a few roundings off, is taken 1e-6 smaller (relative).
- * @param t [m], @param inv_scale values per metre (1 / s), @param no_return the encoding's no-return value
+ * Sets which fast paths are replaced by their reference (default: none) for every Pipeline of the process; not to
+ * be changed while frames are processed. @return the previous setting
  */
-inline int rescueMove(float t, float inv_scale, int no_return)
-{
-  const float steps = t * inv_scale * (1.0f - 1e-6f) - (4.0f * static_cast<float>(no_return) / 16777216.0f + 1e-4f);
-  return steps >= 1.0f ? static_cast<int>(steps) + 1 : 1;  // steps >= 1: the conversion is its floor
-}
+ReferencePaths setReferencePaths(const ReferencePaths& paths);
+/** @return the current setting of setReferencePaths. */
+ReferencePaths referencePaths();
+
+struct FrameWork;
 }  // namespace detail
 
 /**
@@ -152,19 +150,8 @@ public:
   const ScanProjector& projector() const { return projector_; }
 
 private:
-  struct Scratch;
   template <typename T>
   void run(const cv::Mat& depth, FrameResult& out);
-  struct SpanBuffers;
-  Scratch& teamScratch(int& team);
-  template <typename Acc, typename Src>
-  void binSpan(int r, int a, int b, const SpanBuffers& buf, const Src& src, const Acc& acc) const;
-  template <typename Acc, typename Src>
-  void binSpan(int r, int a, int b, int n, const SpanPlan& plan, const SpanBuffers& buf, const Src& src,
-               const Acc& acc) const;
-  template <typename T>
-  void surfaceMeans(const cv::Mat& depth, FrameResult& out, int threads);
-  void prepareBuffers(int threads);
 
   Camera camera_;
   Config config_;
@@ -175,12 +162,7 @@ private:
   ThresholdLut lut_;
   Encoding lut_encoding_ = Encoding::kMono8;
   bool lut_valid_ = false;
-  detail::ValueTerms value_terms_;  ///< rebuilt with the table (8- and 16-bit)
-  cv::Mat eroded_, mapped_, opened_;
-  std::vector<std::int32_t> spans_;  ///< first and last kept column of each row (first > last: none)
-  std::vector<std::int32_t> cliff_count_;  ///< below-floor pixels per beam of the frame
-  std::vector<float> band_limit_;          ///< surface_band: farthest range counted per beam (+ padding) [m]
-  std::vector<std::unique_ptr<Scratch>> scratch_;
+  std::unique_ptr<detail::FrameWork> work_;  ///< the frames' buffers (src/core/frame_work.h)
 };
 
 }  // namespace kinect_pipeline

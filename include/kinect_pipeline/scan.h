@@ -110,13 +110,20 @@ bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t*
  * same bits. For tests: not to be changed while frames are processed. @return the previous setting
  */
 bool setVectorPaths(bool on);
+/**
+ * Whether the hand-written AVX-512 paths can run here: the library was built with them (GCC on x86-64) and the CPU
+ * has AVX-512 F, BW, DQ and VL. Where not, setVectorPaths changes nothing and the portable loops always run.
+ */
+bool vectorPathsAvailable();
 }  // namespace detail
 
 /**
  * Maps pixels to beams: a pixel goes to the bin of its centre's bearing, and the bins between two neighbouring
  * centres of a row go to the nearer one, so the binning leaves no bin empty that a surface covers, whatever the
  * pitch. The horizontal projection finds each bin's pixels from the bin's borders (spanPixels()); the column
- * projection, and rows where that does not hold, bin the centres by their bearings (spanBins()). The column edges' bearings (rowEdgeBins()) bound what the image sees.
+ * projection, and rows where that does not hold, bin the centres by their bearings (spanBins()).
+ * The column edges' bearings (rowEdgeBins(), rowCoverage()) bound what the image sees. The binning of a frame's rows
+ * with these methods is the core's (src/core/scan_binning.cpp, docs/core_design.md).
  *
  * Horizontal projection: the ray of pixel (u, r) in the gravity-aligned frame is
  * (X, Y) = (ax * xn + bx(r), ay * xn + by(r)) per metre of depth; its beam angle is atan2(Y, X) and its range
@@ -149,6 +156,11 @@ public:
    */
   void coverage(float& lo, float& hi) const;
   /**
+   * @brief Widens [lo, hi] to the fractional bin positions of the outer edges of row r's first and last pixels
+   *        (coverage() is this over every row, from lo = +Inf, hi = -Inf).
+   */
+  void rowCoverage(int r, float& lo, float& hi) const;
+  /**
    * @brief The pixels of each bin, for the span a..b of row r (horizontal projection): the same bins as
    *        spanBins gives the centres, up to float rounding at a bin's border, found from the bins' side instead.
    *
@@ -159,8 +171,9 @@ public:
    * neighbouring centres (narrower than a pixel) gets the centre nearest to its middle, lo[j] = hi[j]; its middle
    * is taken halfway between the two crossings. Both are clipped to a..b (lo[j] > hi[j]: nothing of the span).
    * @return the number of bins n (0: the span reaches no bin), or -1 where this does not hold: the column
-   *         projection, a row whose line passes (nearly) under the sensor, or bearings that leave the forward
-   *         half-plane; the caller then bins the centres by their bearings (spanBins).
+   *         projection, a row whose line passes (nearly) under the sensor, bearings that leave the forward
+   *         half-plane, or a span whose bearings pass the direction straight behind the sensor (a row that looks
+   *         behind it: the scan's two ends); the caller then bins the centres by their bearings (spanBins).
    */
   int spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const;
   /** @brief spanPixels' checks and bins without the pixels: @return n as spanPixels, and the plan where n > 0. */
@@ -177,18 +190,16 @@ public:
    */
   template <typename T>
   void spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const;
-
-private:
-  friend class Pipeline;  ///< bins only the kept part of each row, and tracks bins from row to row
-
-  /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
-  void edgeBins(int r, int e0, int e1, float* out) const;
   /**
    * @brief For pixels u0..u1 of row r, in one pass: fb = fractional bin positions of their centres, key = their
    *        bins (binKey), range = depth * range per metre of depth (horizontal: hypot(X, Y); column:
    *        1 / cos(theta_x)); +Inf depth stays +Inf.
    */
   void spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key, float* range) const;
+
+private:
+  /** @brief out[e] = fractional bin position of column edge e of row r, for e in [e0, e1] only. */
+  void edgeBins(int r, int e0, int e1, float* out) const;
 
   Projection projection_ = Projection::kHorizontal;
   int width_ = 0, height_ = 0, beams_ = 0;

@@ -95,12 +95,12 @@ void pitchRollFromUp(const double n[3], double& pitch, double& roll)
   roll = std::atan2(-n[0], -n[1]);
 }
 
-FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const CalibrationOptions& o)
+namespace
 {
-  camera.validate();
-  if (depth_m.type() != CV_32FC1 || depth_m.cols != camera.width || depth_m.rows != camera.height)
-    throw std::invalid_argument("calibrateFromFloor: expected a 32FC1 depth image of the camera's size " +
-                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
+// The image's points closer than max_range in the optical frame, every stride-th row and column, weighted by the
+// depth noise 1 / sigma(z)^2.
+std::vector<Pt> cloudOf(const cv::Mat& depth_m, const Camera& camera, const CalibrationOptions& o)
+{
   std::vector<Pt> pts;
   const int stride = std::max(1, o.stride);
   for (int r = 0; r < depth_m.rows; r += stride)
@@ -112,15 +112,27 @@ FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const
       const double s = kinectSigma(z);
       pts.push_back({(u - camera.cx) / camera.fx * z, (r - camera.cy) / camera.fy * z, z, 1.0 / (s * s)});
     }
-  FloorPose out;
-  if (pts.size() < 50)
-    return out;
+  return pts;
+}
+
+// Whether a plane is within the options' tilt and height limits of a floor.
+bool floorLike(const Plane& p, const CalibrationOptions& o)
+{
   const double up[3] = {0.0, -1.0, 0.0};
-  const double cos_tilt = std::cos(o.max_tilt);
+  return !(p.n[0] * up[0] + p.n[1] * up[1] + p.n[2] * up[2] < std::cos(o.max_tilt) || p.d < o.min_height ||
+           p.d > o.max_height);
+}
+
+/**
+ * The floor among the planes of bestPlane over a subsample of the nearer points (their noise is small: far points
+ * would support tilted planes). @return false where no plane has enough support, else the floor: the lowest such
+ * plane, not the one holding the most pixels (a desk often does): the search goes on among the points below the
+ * plane found, as long as a plane there holds at least min_fraction of them all.
+ */
+bool searchFloor(const std::vector<Pt>& pts, const CalibrationOptions& o, Plane& floor)
+{
   std::mt19937_64 rng(o.seed);
-  std::vector<std::size_t> sample;
-  // Hypotheses are scored on the nearer points, whose noise is small: far points would support tilted planes.
-  std::vector<std::size_t> near;
+  std::vector<std::size_t> sample, near;
   for (std::size_t i = 0; i < pts.size(); ++i)
     if (pts[i].z < 4.0)
       near.push_back(i);
@@ -135,9 +147,7 @@ FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const
     sample.push_back(near[i]);
   const Hyp top = bestPlane(pts, sample, o, rng);
   if (top.support < std::max(10, static_cast<int>(o.min_fraction * sample.size())))
-    return out;
-  // The floor is the lowest such plane, not the one holding the most pixels (a desk often does): search again
-  // among the points below the plane found, as long as a plane there holds at least min_fraction of them all.
+    return false;
   const int needed = std::max(10, static_cast<int>(o.min_fraction * sample.size()));
   Hyp chosen = top;
   for (int round = 0; round < 4; ++round)
@@ -153,46 +163,60 @@ FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const
       break;
     chosen = lower;
   }
+  floor = chosen.p;
+  return true;
+}
 
-  // Weighted least-squares refits on the inliers (weights 1 / sigma(z)^2), twice, re-selecting the inliers.
-  Plane p = chosen.p;
+/** A weighted least-squares plane: its inliers, their weighted centroid c and scatter cov, the weights' sum. */
+struct Refit
+{
+  Plane p;
   std::vector<const Pt*> in;
   double cov[3][3] = {};
   double wsum = 0.0;
   double c[3] = {0, 0, 0};
+};
+
+/**
+ * Weighted least-squares refits on the inliers of p (weights 1 / sigma(z)^2), three times, re-selecting the
+ * inliers. @return false where fewer than 10 remain.
+ */
+bool refitPlane(const std::vector<Pt>& pts, const Plane& start, Refit& f)
+{
+  Plane p = start;
   for (int pass = 0; pass < 3; ++pass)
   {
-    in.clear();
+    f.in.clear();
     for (const Pt& q : pts)
       if (std::fabs(p.n[0] * q.x + p.n[1] * q.y + p.n[2] * q.z + p.d) < band(q.z))
-        in.push_back(&q);
-    if (in.size() < 10)
-      return out;
-    c[0] = c[1] = c[2] = 0.0;
-    wsum = 0.0;
-    for (const Pt* q : in)
+        f.in.push_back(&q);
+    if (f.in.size() < 10)
+      return false;
+    f.c[0] = f.c[1] = f.c[2] = 0.0;
+    f.wsum = 0.0;
+    for (const Pt* q : f.in)
     {
-      c[0] += q->w * q->x;
-      c[1] += q->w * q->y;
-      c[2] += q->w * q->z;
-      wsum += q->w;
+      f.c[0] += q->w * q->x;
+      f.c[1] += q->w * q->y;
+      f.c[2] += q->w * q->z;
+      f.wsum += q->w;
     }
-    for (double& x : c)
-      x /= wsum;
-    for (auto& row : cov)
+    for (double& x : f.c)
+      x /= f.wsum;
+    for (auto& row : f.cov)
       for (double& x : row)
         x = 0.0;
-    for (const Pt* q : in)
+    for (const Pt* q : f.in)
     {
-      const double d[3] = {q->x - c[0], q->y - c[1], q->z - c[2]};
+      const double d[3] = {q->x - f.c[0], q->y - f.c[1], q->z - f.c[2]};
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
-          cov[i][j] += q->w * d[i] * d[j];
+          f.cov[i][j] += q->w * d[i] * d[j];
     }
-    cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
+    cv::Mat C(3, 3, CV_64F, f.cov), evals, evecs;
     cv::eigen(C, evals, evecs);  // descending: the last row is the normal
     double n[3] = {evecs.at<double>(2, 0), evecs.at<double>(2, 1), evecs.at<double>(2, 2)};
-    double d = -(n[0] * c[0] + n[1] * c[1] + n[2] * c[2]);
+    double d = -(n[0] * f.c[0] + n[1] * f.c[1] + n[2] * f.c[2]);
     if (d < 0)
     {
       for (double& x : n)
@@ -201,11 +225,16 @@ FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const
     }
     p = {{n[0], n[1], n[2]}, d};
   }
-  // A slice of a wall at the tilt limit refits to the wall: what fails the limits after the refit is no floor.
-  if (p.n[0] * up[0] + p.n[1] * up[1] + p.n[2] * up[2] < cos_tilt || p.d < o.min_height || p.d > o.max_height)
-    return out;
+  f.p = p;
+  return true;
+}
+
+/** The pose of a refitted floor, its residuals and the uncertainty of each term. */
+void describeFloor(const Refit& f, std::size_t points, FloorPose& out)
+{
+  const Plane& p = f.p;
   double ss = 0.0, wss = 0.0;
-  for (const Pt* q : in)
+  for (const Pt* q : f.in)
   {
     const double e = p.n[0] * q->x + p.n[1] * q->y + p.n[2] * q->z + p.d;
     ss += e * e;
@@ -214,30 +243,50 @@ FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const
   out.found = true;
   out.height = p.d;
   pitchRollFromUp(p.n, out.pitch, out.roll);
-  out.floor_pixels = static_cast<int>(in.size());
-  out.floor_fraction = static_cast<double>(in.size()) / pts.size();
-  out.rms = std::sqrt(ss / in.size());
+  out.floor_pixels = static_cast<int>(f.in.size());
+  out.floor_fraction = static_cast<double>(f.in.size()) / points;
+  out.rms = std::sqrt(ss / f.in.size());
   // Uncertainty of a weighted plane fit: the residual scale over the weighted spread along each direction.
-  const double scale = std::sqrt(wss / std::max<std::size_t>(1, in.size() - 3));
+  const double scale = std::sqrt(wss / std::max<std::size_t>(1, f.in.size() - 3));
   double e1[3], e2[3];
+  double cov[3][3];
+  std::copy(&f.cov[0][0], &f.cov[0][0] + 9, &cov[0][0]);
+  cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
+  cv::eigen(C, evals, evecs);
+  for (int i = 0; i < 3; ++i)
   {
-    cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
-    cv::eigen(C, evals, evecs);
-    for (int i = 0; i < 3; ++i)
-    {
-      e1[i] = evecs.at<double>(0, i);
-      e2[i] = evecs.at<double>(1, i);
-    }
-    const double l1 = std::max(evals.at<double>(0), 1e-12), l2 = std::max(evals.at<double>(1), 1e-12);
-    const double s1 = scale / std::sqrt(l1), s2 = scale / std::sqrt(l2);
-    // Tilting the normal towards e1 / e2 by s1 / s2 radians; map onto pitch (optical z) and roll (optical x).
-    out.pitch_std = std::hypot(s1 * e1[2], s2 * e2[2]);
-    out.roll_std = std::hypot(s1 * e1[0], s2 * e2[0]);
-    // The height is the plane's distance from the camera: its offset at the centroid, plus the tilt times the
-    // centroid's lever arm.
-    const double arm1 = e1[0] * c[0] + e1[1] * c[1] + e1[2] * c[2], arm2 = e2[0] * c[0] + e2[1] * c[1] + e2[2] * c[2];
-    out.height_std = std::sqrt(scale * scale / wsum + std::pow(s1 * arm1, 2) + std::pow(s2 * arm2, 2));
+    e1[i] = evecs.at<double>(0, i);
+    e2[i] = evecs.at<double>(1, i);
   }
+  const double l1 = std::max(evals.at<double>(0), 1e-12), l2 = std::max(evals.at<double>(1), 1e-12);
+  const double s1 = scale / std::sqrt(l1), s2 = scale / std::sqrt(l2);
+  // Tilting the normal towards e1 / e2 by s1 / s2 radians; map onto pitch (optical z) and roll (optical x).
+  out.pitch_std = std::hypot(s1 * e1[2], s2 * e2[2]);
+  out.roll_std = std::hypot(s1 * e1[0], s2 * e2[0]);
+  // The height is the plane's distance from the camera: its offset at the centroid, plus the tilt times the
+  // centroid's lever arm.
+  const double* c = f.c;
+  const double arm1 = e1[0] * c[0] + e1[1] * c[1] + e1[2] * c[2], arm2 = e2[0] * c[0] + e2[1] * c[1] + e2[2] * c[2];
+  out.height_std = std::sqrt(scale * scale / f.wsum + std::pow(s1 * arm1, 2) + std::pow(s2 * arm2, 2));
+}
+}  // namespace
+
+FloorPose calibrateFromFloor(const cv::Mat& depth_m, const Camera& camera, const CalibrationOptions& o)
+{
+  camera.validate();
+  if (depth_m.type() != CV_32FC1 || depth_m.cols != camera.width || depth_m.rows != camera.height)
+    throw std::invalid_argument("calibrateFromFloor: expected a 32FC1 depth image of the camera's size " +
+                                std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  const std::vector<Pt> pts = cloudOf(depth_m, camera, o);
+  FloorPose out;
+  Plane floor;
+  Refit fit;
+  if (pts.size() < 50 || !searchFloor(pts, o, floor) || !refitPlane(pts, floor, fit))
+    return out;
+  // A slice of a wall at the tilt limit refits to the wall: what fails the limits after the refit is no floor.
+  if (!floorLike(fit.p, o))
+    return out;
+  describeFloor(fit, pts.size(), out);
   return out;
 }
 

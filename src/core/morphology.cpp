@@ -1,3 +1,5 @@
+// The opening's row kernels (morphology.h), checked against OpenCV bit for bit. Design notes: docs/core_design.md
+// ("Stage 1: the opening").
 #include "kinect_pipeline/morphology.h"
 
 #include <algorithm>

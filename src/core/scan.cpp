@@ -1,3 +1,5 @@
+// ScanProjector (scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border crossings.
+// Design notes: docs/core_design.md ("The scan").
 #include "kinect_pipeline/scan.h"
 
 #include "simd.h"
@@ -413,9 +415,24 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   if (projection_ != Projection::kHorizontal)
     return -1;
   const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
-  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor.
-  if (!(std::fabs(bx * ay - by * ax) > 1e-4f))
+  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor: by its distance
+  // from it (at least |bx ay - by ax|, as |(ax, ay)| <= 1) in pixels, D, a bin without a centre takes the centre
+  // nearest to the middle of its borders' crossings in columns instead of in bearings, at most 1 / (4 D^2 inc)
+  // bins off (the bearing's curvature over a pixel): a twentieth of a bin at most (D >= 46 pixels for 512 beams
+  // over 70.6 degrees: a Kinect v2's rows are all farther up to a pitch of 0.94 rad, 100 pixels or more at 0.8).
+  const float cross = std::fabs(bx * ay - by * ax), far = cross * fx_;
+  if (!(cross > 1e-4f) || !(far * far * inc_ >= 5.0f))
     return -1;
+  // A span whose bearings pass the direction straight behind the sensor (Y = 0 with X < 0: only rows that look
+  // behind it, looking steeply down) runs from one end of the bin positions to the other: its bins are not the one
+  // run k0..k1 between its ends' bins.
+  const float x0 = (static_cast<float>(a - 1) - cx_) * inv_fx_, x1 = (static_cast<float>(b + 1) - cx_) * inv_fx_;
+  if (ay != 0.0f)
+  {
+    const float behind = -by / ay;  // xn where Y = 0
+    if (behind >= x0 && behind <= x1 && ax * behind + bx < 0.0f)
+      return -1;
+  }
   // Bins of the centres either side of the span (the pixels a - 1 and b + 1, seen as +Inf), found with a coarse
   // atan, and coarse_margin_ more each side: one for the rounding at a border, the rest for the atan's error.
   // More bins than needed only add bins without a pixel of the span.
@@ -423,7 +440,7 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   float f[2];
   for (int i = 0; i < 2; ++i)
   {
-    const float xn = (static_cast<float>(i == 0 ? a - 1 : b + 1) - cx_) * inv_fx_;
+    const float xn = i == 0 ? x0 : x1;
     f[i] = (coarseAtan2(ay * xn + by, ax * xn + bx) - lo_) * inv;
   }
   const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - coarse_margin_);
@@ -505,105 +522,32 @@ bool detail::setVectorPaths(bool on)
   return was;
 }
 
-void ScanProjector::coverage(float& lo, float& hi) const
+bool detail::vectorPathsAvailable() { return vectorPathsSupported(); }
+
+void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
 {
   if (projection_ == Projection::kColumn)
   {
-    lo = std::min(col_edge_bins_.front(), col_edge_bins_.back());
-    hi = std::max(col_edge_bins_.front(), col_edge_bins_.back());
+    lo = std::min({lo, col_edge_bins_.front(), col_edge_bins_.back()});
+    hi = std::max({hi, col_edge_bins_.front(), col_edge_bins_.back()});
     return;
   }
+  const float inv = 1.0f / inc_;
+  for (const float x : {xe_.front(), xe_.back()})
+  {
+    const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
+    lo = std::min(lo, f);
+    hi = std::max(hi, f);
+  }
+}
+
+void ScanProjector::coverage(float& lo, float& hi) const
+{
   lo = std::numeric_limits<float>::infinity();
   hi = -lo;
-  const float inv = 1.0f / inc_;
-  for (int r = 0; r < height_; ++r)
-  {
-    for (const float x : {xe_.front(), xe_.back()})
-    {
-      const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
-      lo = std::min(lo, f);
-      hi = std::max(hi, f);
-    }
-  }
-}
-
-void Confidence::configure(int beams, const Config& config)
-{
-  const int window = config.confidence_window;
-  if (beams != beams_ || window != window_)
-  {
-    beams_ = beams;
-    window_ = window;
-    history_.assign(static_cast<std::size_t>(beams_) * window_, std::numeric_limits<float>::quiet_NaN());
-    sum_.assign(beams_, 0.0f);
-    count_.assign(beams_, 0);
-    head_ = 0;
-  }
-  distance_ = static_cast<float>(config.confidence_distance);
-  min_intensity_ = static_cast<float>(config.min_intensity);
-  filter_ = config.intensity_filter;
-}
-
-void Confidence::reset()
-{
-  std::fill(history_.begin(), history_.end(), std::numeric_limits<float>::quiet_NaN());
-  head_ = 0;
-}
-
-namespace
-{
-// Confidence::apply's sums over the window, beam by beam in the order of the window's slots (k outer, so that the
-// loop runs over beams in whole vectors), NaN slots left out.
-KP_CLONES void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
-                          std::int32_t* __restrict n)
-{
-  for (int b = 0; b < beams; ++b)
-  {
-    sum[b] = 0.0f;
-    n[b] = 0;
-  }
-  for (int k = 0; k < window; ++k)
-  {
-    const float* h = history + static_cast<std::size_t>(k) * beams;
-    for (int b = 0; b < beams; ++b)
-    {
-      const bool ok = h[b] == h[b];  // not NaN
-      sum[b] += ok ? h[b] : 0.0f;    // the history holds ranges > 0: adding +0 changes nothing
-      n[b] += ok;
-    }
-  }
-}
-
-// Intensity of each beam from its window's mean (see Confidence), NaN for filtered beams. Selects, no branches.
-KP_CLONES void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
-                             int beams, float distance, float min_intensity, bool filter, float* __restrict out)
-{
-  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
-  for (int b = 0; b < beams; ++b)
-  {
-    const float d = ranges[b];
-    const bool is_nan = d != d, is_inf = d == inf || d == -inf;
-    const float mean = sum[b] / static_cast<float>(n[b] > 0 ? n[b] : 1);  // n >= 1 where d is finite
-    float i = 1.0f - std::fabs(d - mean) / distance;
-    i = 0.0f < i ? i : 0.0f;  // std::min(1, std::max(0, i)), operand for operand
-    i = i < 1.0f ? i : 1.0f;
-    const float value = is_nan ? 0.0f : (is_inf ? 1.0f : i);
-    out[b] = value;
-    ranges[b] = (filter && !is_nan && !is_inf && value <= min_intensity) ? nan : d;
-  }
-}
-}  // namespace
-
-void Confidence::apply(std::vector<float>& ranges, std::vector<float>& intensities)
-{
-  intensities.resize(ranges.size());
-  float* slot = history_.data() + static_cast<std::size_t>(head_) * beams_;
-  for (int b = 0; b < beams_; ++b)
-    slot[b] = std::isfinite(ranges[b]) ? ranges[b] : std::numeric_limits<float>::quiet_NaN();
-  head_ = (head_ + 1) % window_;
-  windowSums(history_.data(), beams_, window_, sum_.data(), count_.data());
-  intensityLoop(ranges.data(), sum_.data(), count_.data(), beams_, distance_, min_intensity_, filter_,
-                intensities.data());
+  // The column projection's edges do not depend on the row.
+  for (int r = 0; r < (projection_ == Projection::kColumn ? 1 : height_); ++r)
+    rowCoverage(r, lo, hi);
 }
 
 }  // namespace kinect_pipeline

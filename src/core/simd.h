@@ -4,7 +4,7 @@
 // library is loaded (GCC's target_clones, an ifunc). The core is built with -ffp-contract=off, so that no clone
 // fuses a multiply and an add: every clone gives bit-identical results, on every CPU.
 // Off for sanitizer builds (an ifunc resolver runs before the sanitizer runtime is up), for other compilers and
-// other architectures, and with -DKP_NO_CLONES.
+// other architectures, and with -DKP_NO_CLONES. Design notes: docs/core_design.md ("Fast paths and their references").
 #pragma once
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
@@ -15,7 +15,7 @@
 #endif
 
 // The binning's pull (scan.cpp), the 3x3 opening (morphology.cpp) and the labelling of a row by value
-// (pipeline.cpp) have AVX-512 paths of their own, picked at run time (detail::vectorPaths).
+// (value_labeller.cpp) have AVX-512 paths of their own, picked at run time (detail::vectorPaths).
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(KP_NO_CLONES)
 #define KP_AVX512_PATHS 1
 #define KP_TARGET_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
@@ -29,17 +29,20 @@ namespace detail
 /** detail::setVectorPaths (scan.h): whether the hand-written AVX-512 paths may run (tests turn them off). */
 inline bool g_vector_paths = true;
 
-/** Whether the CPU has the AVX-512 subsets the hand-written paths use and they are on. */
-inline bool vectorPaths()
+/** Whether the library has the hand-written AVX-512 paths and the CPU the AVX-512 subsets they use. */
+inline bool vectorPathsSupported()
 {
 #if defined(KP_AVX512_PATHS)
   static const bool has = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
                           __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
-  return has && g_vector_paths;
+  return has;
 #else
   return false;
 #endif
 }
+
+/** Whether the hand-written AVX-512 paths run: supported, and on. */
+inline bool vectorPaths() { return vectorPathsSupported() && g_vector_paths; }
 }  // namespace detail
 
 /**

@@ -9,6 +9,7 @@ The math lives in the C++ core (``kinect_pipeline._core``); this package re-expo
 
 from __future__ import annotations
 
+from . import _core
 from ._core import (
     Camera,
     Config,
@@ -27,8 +28,8 @@ from ._core import (
     threshold_lut,
 )
 
-#: Values of ``Result.labels``.
-LABELS: dict[str, int] = {"kept": 0, "invalid": 1, "floor": 2, "above_ceiling": 3, "below_floor": 4}
+#: Values of ``Result.labels`` by name (the core's list).
+LABELS: dict[str, int] = dict(_core.LABELS)
 
 #: Kinect v2 depth camera (512x424, 70.6 x 60 deg, as in the thesis).
 KINECT_V2_HFOV = 1.2322

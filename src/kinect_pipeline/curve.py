@@ -249,7 +249,7 @@ def score_curve(name: str, curve: str, rendered: list[_Rendered]) -> CurveScore:
     phantom = []
     for r in rendered:
         res = pipe.process(r.depth, r.base_pitch, 0.0)
-        kept = res.labels == 0
+        kept = res.labels == _core.LABELS["kept"]
         floor_kept += int((kept & r.floor).sum())
         floor_n += int(r.floor.sum())
         for k, m in enumerate(r.classes):

@@ -9,7 +9,7 @@ import numpy as np
 from . import _core
 from .scenes import FIRST_BOX, FLOOR, NOTHING, Frame
 
-KEPT = 0
+KEPT = _core.LABELS["kept"]
 
 
 @dataclass

@@ -109,7 +109,7 @@ def evaluate(frames: int = 20, encoding: str = "16UC1", seed: int = 11, show_pro
                     for k, (lo, hi) in enumerate(HEIGHT_CLASSES):
                         m = obstacle & (height >= lo) & (height < hi)
                         if m.any():
-                            acc.setdefault(f"kept{k}", []).append(float((labels[m] == 0).mean()))
+                            acc.setdefault(f"kept{k}", []).append(float((labels[m] == _core.LABELS["kept"]).mean()))
                 phantom, phantom4 = phantom_rates(t, ranges, angle_min, inc, obstacle)
                 acc.setdefault("phantom", []).append(phantom)
                 acc.setdefault("phantom4", []).append(phantom4)

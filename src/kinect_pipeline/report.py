@@ -75,7 +75,9 @@ class _Runner:
         res = self.pipe.process_pose(depth, *pose)
         res_f = self.pipe_f.process_pose(depth, *pose)
         self.out.angle_min, self.out.angle_increment = res.angle_min, res.angle_increment
-        score = abs(pose[1]) + float((res.labels == 0).mean()) * 1e-3  # the largest pitch; ties: the most kept
+        score = (
+            abs(pose[1]) + float((res.labels == _core.LABELS["kept"]).mean()) * 1e-3
+        )  # the largest pitch; ties: the most kept
         if score > self.best:
             self.best = score
             self.out.showcase = (depth.copy(), res, float(self.pipe.config.max_depth), name)

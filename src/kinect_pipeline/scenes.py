@@ -152,8 +152,10 @@ def render_frame(
 
 kinect_sigma = _core.kinect_sigma
 
-#: Ground-truth labels, the same values as the pipeline's.
-KEPT, INVALID, FLOOR_LABEL, ABOVE_CEILING, BELOW_FLOOR = 0, 1, 2, 3, 4
+#: Ground-truth labels, the pipeline's own values (the core's list).
+KEPT, INVALID, FLOOR_LABEL, ABOVE_CEILING, BELOW_FLOOR = (
+    _core.LABELS[n] for n in ("kept", "invalid", "floor", "above_ceiling", "below_floor")
+)
 
 
 def truth_labels(truth: dict[str, np.ndarray], ceiling_height: float = 2.0) -> np.ndarray:

@@ -274,7 +274,6 @@ std::string describeResult(const PyResult& r)
   return s.str();
 }
 
-const char* kLabelNames[kNumLabels] = {"kept", "invalid", "floor", "above_ceiling", "below_floor"};
 
 template <typename F>
 PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
@@ -686,6 +685,12 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("curve"), py::arg("depth"));
   m.def("default_threshold_curve", []() { return formatThresholdCurve(defaultThresholdCurve()); });
+  {
+    py::dict labels;  // the core's own list: Result.labels values by name
+    for (int k = 0; k < kNumLabels; ++k)
+      labels[kLabelNames[k]] = k;
+    m.attr("LABELS") = labels;
+  }
 
   m.def(
       "sensor_models", []() {

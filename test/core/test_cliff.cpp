@@ -11,6 +11,7 @@
 
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/synthetic.h"
+#include "test_scenes.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -21,22 +22,8 @@ constexpr float kInfF = std::numeric_limits<float>::infinity();
 
 Camera kinect() { return Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180); }
 
-// A hole in the floor ahead and to the left, and (separately) a stair down across the whole view.
-Scene holeScene()
-{
-  Scene s;
-  s.holes = {{2.0, 2.6, -0.2, 0.6, 0, 0}};
-  s.hole_depth = 0.5;
-  return s;
-}
-
-Scene stairScene()
-{
-  Scene s;
-  s.holes = {{3.0, 30.0, -30.0, 30.0, 0, 0}};  // the floor ends 3 m ahead; the next step is 17 cm lower
-  s.hole_depth = 0.17;
-  return s;
-}
+using kp_test::holeScene;
+using kp_test::stairScene;
 
 // Depth [m] of an encoded frame after the opening the pipeline uses (3x3 rect): OpenCV's morphologyEx on the
 // metres (min and max commute with the encodings' monotone scale), unknown pixels as the largest value.

@@ -11,6 +11,7 @@
 #include "kinect_pipeline/encoding.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/scan.h"  // detail::setVectorPaths
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
@@ -34,45 +35,53 @@ cv::Mat randomImage(int rows, int cols, int type, unsigned seed)
   return m;
 }
 
-bool identical(const cv::Mat& a, const cv::Mat& b)
+using kp_test::sameBits;
+
+// OpenCV's morphologyEx is the slow, obvious reference; vector: the AVX-512 3x3 path (else the portable loops).
+void checkRect(int type, int ksize, int rows, int cols, bool vector)
 {
-  if (a.size() != b.size() || a.type() != b.type())
-    return false;
-  for (int r = 0; r < a.rows; ++r)
-    if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0)
-      return false;
-  return true;
+  const cv::Mat img = randomImage(rows, cols, type, 7 + ksize + rows);
+  cv::Mat ref, scratch;
+  cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
+  if (type == CV_32FC1)
+    ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
+  const bool was = detail::setVectorPaths(vector);
+  cv::Mat got;
+  morphOpen(img, got, ksize, KernelShape::kRect, scratch);
+  detail::setVectorPaths(was);
+  EXPECT_TRUE(sameBits(ref, got)) << (vector ? "AVX-512" : "portable") << ", type " << type << ", kernel "
+                                   << ksize << ", " << rows << "x" << cols;
 }
+
+const std::vector<int> kRows = {1, 2, 37};
+const std::vector<int> kCols = {1, 2, 3, 31, 32, 33, 63, 64, 65, 66, 127, 128, 131, 512};
 }  // namespace
 
 class OpenVsOpenCV : public ::testing::TestWithParam<std::tuple<int, int, int, int>>
 {
 };
 
-// OpenCV's morphologyEx is the slow, obvious reference.
 TEST_P(OpenVsOpenCV, RectIsIdentical)
 {
   const auto [type, ksize, rows, cols] = GetParam();
-  const cv::Mat img = randomImage(rows, cols, type, 7 + ksize + rows);
-  cv::Mat ref, scratch;
-  cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
-  if (type == CV_32FC1)
-    ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
-  // The AVX-512 3x3 path where the CPU has one, and the portable loops.
-  for (const bool vector : {true, false})
-  {
-    const bool was = detail::setVectorPaths(vector);
-    cv::Mat got;
-    morphOpen(img, got, ksize, KernelShape::kRect, scratch);
-    detail::setVectorPaths(was);
-    EXPECT_TRUE(identical(ref, got)) << (vector ? "vector" : "portable");
-  }
+  checkRect(type, ksize, rows, cols, false);
 }
 
 INSTANTIATE_TEST_SUITE_P(Types, OpenVsOpenCV,
                          ::testing::Combine(::testing::Values(CV_8UC1, CV_16UC1, CV_32FC1), ::testing::Values(3, 5, 7),
-                                            ::testing::Values(1, 2, 37),
-                                            ::testing::Values(1, 2, 3, 31, 32, 33, 63, 64, 65, 66, 127, 128, 131, 512)));
+                                            ::testing::ValuesIn(kRows), ::testing::ValuesIn(kCols)));
+
+// The same cases on the hand-written AVX-512 path (the 3x3 rectangle of 8- and 16-bit rows), where the CPU has it.
+TEST(Morphology, Avx512RectIsIdentical)
+{
+  if (!detail::vectorPathsAvailable())
+    GTEST_SKIP() << "this CPU (or this build) has no AVX-512 F/BW/DQ/VL: the AVX-512 opening cannot run here";
+  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+    for (const int ksize : {3, 5, 7})
+      for (const int rows : kRows)
+        for (const int cols : kCols)
+          checkRect(type, ksize, rows, cols, true);
+}
 
 TEST(Morphology, OtherShapesUseOpenCV)
 {
@@ -82,7 +91,7 @@ TEST(Morphology, OtherShapesUseOpenCV)
     cv::Mat ref, got, scratch;
     cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv_shape, cv::Size(5, 5)));
     morphOpen(img, got, 5, shape, scratch);
-    EXPECT_TRUE(identical(ref, got));
+    EXPECT_TRUE(sameBits(ref, got));
   }
 }
 
@@ -93,10 +102,12 @@ TEST(Morphology, RefusesEvenKernels)
   EXPECT_THROW(morphOpen(img, out, 1, KernelShape::kRect, scratch), std::invalid_argument);
 }
 
+namespace
+{
 // The erosion of the fused pipeline maps unknown pixels to no-return on the fly (the 3x3 case by an order-preserving
-// key, not by mapping): against mapping every pixel first, then OpenCV's erosion.
+// key, not by mapping): against mapping every pixel first, then OpenCV's erosion. vector: the AVX-512 3x3 path.
 template <typename T>
-void checkErodeMapped(int type, int rows, int cols)
+void checkErodeMapped(int type, int rows, int cols, bool vector)
 {
   cv::Mat img = randomImage(rows, cols, type, 11 + cols);
   std::mt19937 rng(5 + cols);
@@ -118,27 +129,35 @@ void checkErodeMapped(int type, int rows, int cols)
     cv::erode(mapped, ref, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
     if (type == CV_32FC1)
       ref.setTo(INFINITY, ref == FLT_MAX);
-    for (const bool vector : {true, false})
-    {
-      const bool was = detail::setVectorPaths(vector);
-      cv::Mat got(img.size(), img.type());
-      std::vector<T> tmp(cols);
-      for (int r = 0; r < rows; ++r)
-        detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
-      detail::setVectorPaths(was);
-      EXPECT_TRUE(identical(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
-                                       << (vector ? " vector" : " portable");
-    }
+    const bool was = detail::setVectorPaths(vector);
+    cv::Mat got(img.size(), img.type());
+    std::vector<T> tmp(cols);
+    for (int r = 0; r < rows; ++r)
+      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
+    detail::setVectorPaths(was);
+    EXPECT_TRUE(sameBits(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
+                                     << (vector ? " AVX-512" : " portable");
   }
 }
 
-TEST(Morphology, ErodeMappedMatchesMappingFirst)
+void checkAllErodeMapped(bool vector)
 {
-  for (const int cols : {1, 2, 3, 31, 32, 33, 63, 64, 65, 66, 127, 128, 131, 512})
+  for (const int cols : kCols)
     for (const int rows : {1, 2, 9})
     {
-      checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols);
-      checkErodeMapped<std::uint16_t>(CV_16UC1, rows, cols);
-      checkErodeMapped<float>(CV_32FC1, rows, cols);
+      checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols, vector);
+      checkErodeMapped<std::uint16_t>(CV_16UC1, rows, cols, vector);
+      checkErodeMapped<float>(CV_32FC1, rows, cols, vector);
     }
+}
+
+}  // namespace
+
+TEST(Morphology, ErodeMappedMatchesMappingFirst) { checkAllErodeMapped(false); }
+
+TEST(Morphology, Avx512ErodeMappedMatchesMappingFirst)
+{
+  if (!detail::vectorPathsAvailable())
+    GTEST_SKIP() << "this CPU (or this build) has no AVX-512 F/BW/DQ/VL: the AVX-512 erosion cannot run here";
+  checkAllErodeMapped(true);
 }

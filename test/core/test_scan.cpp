@@ -130,78 +130,124 @@ TEST(Confidence, WithoutFilterRangesAreUntouched)
   EXPECT_FLOAT_EQ(i[0], 1.0f);
 }
 
+namespace
+{
+struct SpanCounts
+{
+  int rows = 0, up_rows = 0, checked_centres = 0, checked_gaps = 0;
+};
+
+// spanPixels of every 7th row of a pose against each pixel centre's bearing in double precision (see below).
+// forward: every row must be binned from the bins' side (a forward-looking view); else rows it declines are skipped.
+void checkSpanPixels(const Camera& cam, const Config& cfg, double pitch, double roll, bool forward, SpanCounts& c)
+{
+  ScanProjector p;
+  p.configure(cam, cfg);
+  p.setPose(pitch, roll);
+  const int nb = p.beams();
+  const double lo_angle = p.angleMin() - 0.5 * p.angleIncrement();
+  std::vector<std::int32_t> lo(nb), hi(nb);
+  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+  for (int i = 0; i < 3 * cam.height; i += 7)
+  {
+    // Spans of varying ends across the middle, and of the left and right third (one side of a row that looks
+    // behind the sensor, where the bearing grows with the column).
+    const int r = i % cam.height, side = i / cam.height;
+    const int a = side == 0 ? (r * 37) % 100 : (side == 1 ? 0 : 2 * cam.width / 3);
+    const int b = side == 0 ? cam.width - 1 - (r * 13) % 90 : (side == 1 ? cam.width / 3 : cam.width - 1);
+    int first = -1;
+    const int n = p.spanPixels(r, a, b, lo.data(), hi.data(), first);
+    if (forward)
+      ASSERT_GE(n, 0) << "a forward-looking row has monotone bearings: pitch " << pitch << " roll " << roll;
+    if (n <= 0)
+      continue;
+    SpanPlan plan;
+    p.spanPlan(r, a, b, plan);
+    c.up_rows += plan.up;
+    ++c.rows;
+    // Exact fractional bin position of centre u (the ray rotated by roll, then pitch; see PlaneModel).
+    const double yn = (r - cam.cy) / cam.fy;
+    auto pos = [&](int u) {
+      const double xn = (u - cam.cx) / cam.fx;
+      const double X = -sp * sr * xn + cp - sp * cr * yn, Y = -cr * xn + sr * yn;
+      return (std::atan2(Y, X) - lo_angle) / p.angleIncrement();
+    };
+    for (int u = a; u <= b; ++u)
+    {
+      const double f = pos(u);
+      const int k = static_cast<int>(std::floor(f));
+      if (k < 0 || k >= nb || std::fabs(f - std::round(f)) < 1e-3)
+        continue;
+      ASSERT_TRUE(k >= first && k < first + n) << "centre " << u << " in bin " << k << " outside the bins";
+      EXPECT_TRUE(lo[k - first] <= u && u <= hi[k - first])
+          << "row " << r << " centre " << u << " (bin position " << f << ") not in bin " << k << "'s pixels "
+          << lo[k - first] << ".." << hi[k - first];
+      ++c.checked_centres;
+    }
+    for (int u = a; u < b; ++u)
+    {
+      const double f0 = pos(u), f1 = pos(u + 1);
+      if (std::fabs(f1 - f0) > 0.5 * nb)
+        continue;  // the two straddle the direction straight behind (the scan's two ends)
+      for (int k = static_cast<int>(std::floor(std::min(f0, f1))) + 1;
+           k < static_cast<int>(std::floor(std::max(f0, f1))); ++k)
+      {
+        // Bin k holds no centre: it goes to the nearer of u, u + 1 (clear cases only).
+        const double mid = 0.5 * (f0 + f1);
+        if (k < 0 || k >= nb || std::fabs(k + 0.5 - mid) < 0.05)
+          continue;
+        const int want = (k + 0.5 < mid) == (f0 < f1) ? u : u + 1;
+        ASSERT_TRUE(k >= first && k < first + n);
+        EXPECT_EQ(lo[k - first], want) << "row " << r << " gap bin " << k;
+        EXPECT_EQ(hi[k - first], want) << "row " << r << " gap bin " << k;
+        ++c.checked_gaps;
+      }
+    }
+    // Bins before and after the span's pixels get nothing of it.
+    for (int j = 0; j < n; ++j)
+      EXPECT_TRUE(lo[j] > hi[j] || (a <= lo[j] && hi[j] <= b));
+  }
+}
+}  // namespace
+
 // spanPixels (the pipeline's binning of the horizontal projection, from the bins' side) against each pixel
 // centre's bearing in double precision: every centre clear of a border lies in its bin's pixels, and every bin
 // between two centres clear of its middle gets the nearer centre.
 TEST(ScanProjector, SpanPixelsAreTheCentresOfEachBin)
 {
   const Camera cam = Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180);
-  int rows = 0, checked_centres = 0, checked_gaps = 0;
+  SpanCounts c;
   for (int beams : {0, 200, 900})
     for (double pitch : {0.0, 0.26, 0.7, -0.3})
       for (double roll : {0.0, 0.05, -0.3})
       {
         Config cfg;
         cfg.scan_beams = beams;
-        ScanProjector p;
-        p.configure(cam, cfg);
-        p.setPose(pitch, roll);
-        const int nb = p.beams();
-        const double lo_angle = p.angleMin() - 0.5 * p.angleIncrement();
-        std::vector<std::int32_t> lo(nb), hi(nb);
-        const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-        for (int r = 0; r < cam.height; r += 7)
-        {
-          const int a = (r * 37) % 100, b = cam.width - 1 - (r * 13) % 90;  // spans of varying ends
-          int first = -1;
-          const int n = p.spanPixels(r, a, b, lo.data(), hi.data(), first);
-          ASSERT_GE(n, 0) << "a forward-looking row has monotone bearings: pitch " << pitch << " roll " << roll;
-          ++rows;
-          // Exact fractional bin position of centre u (the ray rotated by roll, then pitch; see PlaneModel).
-          const double yn = (r - cam.cy) / cam.fy;
-          auto pos = [&](int u) {
-            const double xn = (u - cam.cx) / cam.fx;
-            const double X = -sp * sr * xn + cp - sp * cr * yn, Y = -cr * xn + sr * yn;
-            return (std::atan2(Y, X) - lo_angle) / p.angleIncrement();
-          };
-          std::vector<int> bin_of(nb, -1);
-          for (int u = a; u <= b; ++u)
-          {
-            const double f = pos(u);
-            const int k = static_cast<int>(std::floor(f));
-            if (k < 0 || k >= nb || std::fabs(f - std::round(f)) < 1e-3)
-              continue;
-            ASSERT_TRUE(k >= first && k < first + n) << "centre " << u << " in bin " << k << " outside the bins";
-            EXPECT_TRUE(lo[k - first] <= u && u <= hi[k - first])
-                << "row " << r << " centre " << u << " (bin position " << f << ") not in bin " << k << "'s pixels "
-                << lo[k - first] << ".." << hi[k - first];
-            ++checked_centres;
-          }
-          for (int u = a; u < b; ++u)
-          {
-            const double f0 = pos(u), f1 = pos(u + 1);
-            for (int k = static_cast<int>(std::floor(std::min(f0, f1))) + 1;
-                 k < static_cast<int>(std::floor(std::max(f0, f1))); ++k)
-            {
-              // Bin k holds no centre: it goes to the nearer of u, u + 1 (clear cases only).
-              const double mid = 0.5 * (f0 + f1);
-              if (k < 0 || k >= nb || std::fabs(k + 0.5 - mid) < 0.05)
-                continue;
-              const int want = (k + 0.5 < mid) == (f0 < f1) ? u : u + 1;
-              ASSERT_TRUE(k >= first && k < first + n);
-              EXPECT_EQ(lo[k - first], want) << "row " << r << " gap bin " << k;
-              EXPECT_EQ(hi[k - first], want) << "row " << r << " gap bin " << k;
-              ++checked_gaps;
-            }
-          }
-          // Bins before and after the span's pixels get nothing of it.
-          for (int j = 0; j < n; ++j)
-            EXPECT_TRUE(lo[j] > hi[j] || (a <= lo[j] && hi[j] <= b));
-        }
+        checkSpanPixels(cam, cfg, pitch, roll, true, c);
       }
-  EXPECT_GT(checked_centres, 100000);
-  EXPECT_GT(checked_gaps, 1000);  // beams = 900: bins narrower than a pixel
-  EXPECT_GT(rows, 500);
+  EXPECT_GT(c.checked_centres, 100000);
+  EXPECT_GT(c.checked_gaps, 1000);  // beams = 900: bins narrower than a pixel
+  EXPECT_GT(c.rows, 500);
+}
+
+// The same, looking steeply down with a scan all round: the lowest rows look behind the sensor, where the bearing
+// grows with the column (SpanPlan::up), the crossings' other direction.
+TEST(ScanProjector, SpanPixelsAreTheCentresOfEachBinBehindTheSensor)
+{
+  const Camera cam = Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180);
+  SpanCounts c;
+  for (int beams : {400, 2000, 6000})
+    for (double pitch : {1.2, 1.35, 1.5})
+      for (double roll : {0.0, 0.05, -0.3})
+      {
+        Config cfg;
+        cfg.scan_beams = beams;
+        cfg.scan_fov = 2.0 * M_PI;
+        checkSpanPixels(cam, cfg, pitch, roll, false, c);
+      }
+  EXPECT_GT(c.up_rows, 50);
+  EXPECT_GT(c.checked_centres, 50000);
+  EXPECT_GT(c.checked_gaps, 1000);  // 6000 beams all round: bins narrower than a pixel
 }
 
 TEST(ScanProjector, SpanPixelsDeclinesRowsThatLookStraightDown)

@@ -17,6 +17,7 @@
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/settings_exchange.h"
 #include "kinect_pipeline/synthetic.h"
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
@@ -43,16 +44,6 @@ cv::Mat frame(const Camera& cam, double pitch, int type, std::uint64_t seed)
   return encodeDepth(m, type, 12.0);
 }
 
-bool sameBytes(const cv::Mat& a, const cv::Mat& b)
-{
-  if (a.size() != b.size() || a.type() != b.type())
-    return false;
-  const std::size_t row = a.cols * a.elemSize();
-  for (int r = 0; r < a.rows; ++r)
-    if (std::memcmp(a.ptr(r), b.ptr(r), row) != 0)
-      return false;
-  return true;
-}
 
 bool sameRanges(const std::vector<float>& a, const std::vector<float>& b)
 {
@@ -76,7 +67,7 @@ Expected expect(const Camera& cam, const Config& cfg, const cv::Mat& depth, cons
 
 bool matches(const FrameResult& r, const Expected& e)
 {
-  return sameBytes(r.depth, e.depth) && sameBytes(r.labels, e.labels) && sameRanges(r.scan.ranges, e.ranges);
+  return kp_test::sameBits(r.depth, e.depth) && kp_test::sameBits(r.labels, e.labels) && sameRanges(r.scan.ranges, e.ranges);
 }
 
 /** Settings as the node has them: the core's config plus its own fields, swapped in whole. */

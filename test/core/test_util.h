@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <initializer_list>
 #include <limits>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
@@ -121,6 +123,17 @@ inline void binRow(const std::vector<double>& f, const std::vector<double>& rng,
     if (counts)
       ++(*counts)[k];
   });
+}
+
+/** Whether two images have the same size, type and bytes (any row step). */
+inline bool sameBits(const cv::Mat& a, const cv::Mat& b)
+{
+  if (a.size() != b.size() || a.type() != b.type())
+    return false;
+  for (int r = 0; r < a.rows; ++r)
+    if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0)
+      return false;
+  return true;
 }
 
 /** Expects std::invalid_argument from @p f whose message contains every one of @p words. */

@@ -29,6 +29,8 @@ def _stub() -> tuple[set[str], dict[str, set[str]]]:
             }
         elif isinstance(node, ast.FunctionDef):
             names.add(node.name)
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            names.add(node.target.id)  # a module attribute (LABELS)
     return names, members
 
 
