@@ -5,6 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "kinect_pipeline/config_fields.h"
 #include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/threshold_curve.h"
 
@@ -12,8 +13,6 @@ namespace kinect_pipeline
 {
 namespace
 {
-constexpr double kHalfPi = 1.57079632679489661923;
-
 [[noreturn]] void fail(const std::string& msg) { throw std::invalid_argument(msg); }
 
 /** Collects every problem of a config, so that one message can name them all. */
@@ -21,25 +20,6 @@ class Problems
 {
 public:
   explicit Problems(std::vector<std::string>& out) : out_(out) {}
-  /** @return false (and records why) unless lo <= v <= hi. */
-  bool range(const char* name, double v, double lo, double hi, const char* unit)
-  {
-    if (std::isfinite(v) && v >= lo && v <= hi)
-      return true;
-    std::ostringstream s;
-    s << "Config." << name << " = " << v << ": expected a value in [" << lo << ", " << hi << "] " << unit;
-    add(s.str());
-    return false;
-  }
-  bool positive(const char* name, double v, const char* unit)
-  {
-    if (std::isfinite(v) && v > 0.0)
-      return true;
-    std::ostringstream s;
-    s << "Config." << name << " = " << v << ": expected a finite value > 0 " << unit;
-    add(s.str());
-    return false;
-  }
   /** @return @p ok; records @p what (a stream of the message) when it is false. */
   bool check(bool ok, const std::ostringstream& what)
   {
@@ -150,23 +130,22 @@ std::vector<std::string> Config::problems() const
 {
   std::vector<std::string> out;
   Problems p(out);
-  const bool height_ok =
-      p.range("sensor_height", sensor_height, 0.01, 100.0, "m (height of the optical centre above the floor)");
-  p.range("sensor_pitch", sensor_pitch, -kHalfPi, kHalfPi, "rad (+ looks down)");
-  p.range("sensor_roll", sensor_roll, -kHalfPi, kHalfPi, "rad (+ right side down)");
-  if (p.positive("ceiling_height", ceiling_height, "m") && height_ok)
+  // Each field on its own: the table's ranges (config_fields.cpp).
+  const std::vector<ConfigField>& fields = configFields();
+  std::vector<bool> ok(fields.size());
+  for (std::size_t i = 0; i < fields.size(); ++i)
   {
-    std::ostringstream s;
-    s << "Config.ceiling_height = " << ceiling_height << " m is not above Config.sensor_height = " << sensor_height
-      << " m: the ceiling plane must be above the sensor";
-    p.check(ceiling_height > sensor_height, s);
+    const std::string problem = fields[i].rangeProblem(*this);
+    ok[i] = problem.empty();
+    if (!ok[i])
+      p.add(problem);
   }
-  p.range("max_depth", max_depth, 0.1, 1000.0, "m (depth of 8-bit value 255)");
+  const auto valid = [&](const char* name) { return ok[&configField(name) - fields.data()]; };
+  if (valid("open_kernel_size"))
   {
     std::ostringstream s;
     s << "Config.open_kernel_size = " << open_kernel_size << ": expected 0 or 1 (off) or an odd size 3..31 px";
-    p.check(!(open_kernel_size < 0 || open_kernel_size > 31 || (open_kernel_size > 1 && open_kernel_size % 2 == 0)),
-            s);
+    p.check(!(open_kernel_size > 1 && open_kernel_size % 2 == 0), s);
   }
   try
   {
@@ -176,47 +155,19 @@ std::vector<std::string> Config::problems() const
   {
     p.add(e.what());
   }
-  // '&', not '&&': both limits are judged (and reported) on their own.
-  const bool limits_ok = p.range("range_min", range_min, 0.0, 1000.0, "m") &
-                         p.range("range_max", range_max, 0.0, 1000.0, "m");
-  if (limits_ok)
+  // Combinations, judged only when both fields are valid on their own.
+  if (valid("ceiling_height") && valid("sensor_height"))
+  {
+    std::ostringstream s;
+    s << "Config.ceiling_height = " << ceiling_height << " m is not above Config.sensor_height = " << sensor_height
+      << " m: the ceiling plane must be above the sensor";
+    p.check(ceiling_height > sensor_height, s);
+  }
+  if (valid("range_min") && valid("range_max"))
   {
     std::ostringstream s;
     s << "Config.range_max = " << range_max << " m must be greater than Config.range_min = " << range_min << " m";
     p.check(range_max > range_min, s);
-  }
-  {
-    std::ostringstream s;
-    s << "Config.scan_beams = " << scan_beams << ": expected 0 (image width) or 1..100000 beams";
-    p.check(scan_beams >= 0 && scan_beams <= 100000, s);
-  }
-  p.range("scan_fov", scan_fov, 0.0, 2.0 * 3.14159265358979323846, "rad (0 = the camera's)");
-  p.range("surface_band", surface_band, 0.0, 10.0, "(a multiple of the threshold curve t(d); 0 = nearest pixel)");
-  {
-    std::ostringstream s;
-    s << "Config.cliff_min_pixels = " << cliff_min_pixels << ": expected 1..100000 pixels per beam";
-    p.check(cliff_min_pixels >= 1 && cliff_min_pixels <= 100000, s);
-  }
-  {
-    std::ostringstream s;
-    s << "Config.confidence_window = " << confidence_window << ": expected 1..1000 frames";
-    p.check(confidence_window >= 1 && confidence_window <= 1000, s);
-  }
-  p.positive("confidence_distance", confidence_distance, "m");
-  p.range("min_intensity", min_intensity, 0.0, 1.0, "");
-  p.range("floor_max_height_error", floor_max_height_error, 0.001, 1.0, "m");
-  p.range("floor_max_pitch_error", floor_max_pitch_error, 0.0001, 0.5, "rad");
-  p.range("floor_max_roll_error", floor_max_roll_error, 0.0001, 0.5, "rad");
-  {
-    std::ostringstream s;
-    s << "Config.floor_min_pixels = " << floor_min_pixels << ": expected 1..100000000 image pixels";
-    p.check(floor_min_pixels >= 1 && floor_min_pixels <= 100000000, s);
-  }
-  p.range("floor_learn_time", floor_learn_time, 0.0, 3600.0, "s (0 = learn nothing)");
-  {
-    std::ostringstream s;
-    s << "Config.num_threads = " << num_threads << ": expected 0 (OpenMP default) or 1..1024";
-    p.check(num_threads >= 0 && num_threads <= 1024, s);
   }
   return out;
 }

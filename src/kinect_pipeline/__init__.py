@@ -9,6 +9,8 @@ The math lives in the C++ core (``kinect_pipeline._core``); this package re-expo
 
 from __future__ import annotations
 
+from typing import Any
+
 from . import _core
 from ._core import (
     Camera,
@@ -31,11 +33,15 @@ from ._core import (
 #: Values of ``Result.labels`` by name (the core's list).
 LABELS: dict[str, int] = dict(_core.LABELS)
 
+#: The core's table of Config fields (config_fields.h): name, kind, min, max, unit, doc, choices, default.
+CONFIG_FIELDS: list[dict[str, Any]] = [dict(f) for f in _core.CONFIG_FIELDS]
+
 #: Kinect v2 depth camera (512x424, 70.6 x 60 deg, as in the thesis).
 KINECT_V2_HFOV = 1.2322
 KINECT_V2_VFOV = 1.0472
 
 __all__ = [
+    "CONFIG_FIELDS",
     "KINECT_V2_HFOV",
     "KINECT_V2_VFOV",
     "LABELS",

@@ -17,6 +17,7 @@
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/compressed_depth.h"
 #include "kinect_pipeline/config.h"
+#include "kinect_pipeline/config_fields.h"
 #include "kinect_pipeline/depth_image.h"
 #include "kinect_pipeline/morphology.h"
 #include "kinect_pipeline/pipeline.h"
@@ -175,41 +176,6 @@ std::string describeTerms(const std::string& name, double h, double p, double r)
   return s.str();
 }
 
-/** The Config fields' docstrings (units and ranges as config.h and the .cfg state them). */
-const std::pair<const char*, const char*> kConfigDocs[] = {
-    {"sensor_height", "Height of the optical centre above the floor [m], > 0 (default 1.1)"},
-    {"sensor_pitch", "Static tilt of the sensor on the base [rad], + looks down (default 0)"},
-    {"sensor_roll", "Static roll of the sensor on the base [rad], + right side down (default 0)"},
-    {"ceiling_height", "Height of the ceiling plane above the floor [m], > sensor_height (default 2)"},
-    {"max_depth", "Depth of 8-bit value 255 [m] for 8-bit normalised input (default 12)"},
-    {"geometry", "Plane prediction: 'exact' (pinhole ray/plane, default) or 'thesis' (eq 4.10-4.18)"},
-    {"projection", "Pixel to beam: 'horizontal' (range in the gravity-aligned frame, default) or 'column'"},
-    {"open_kernel_size", "Opening kernel size [px]: 0 or 1 = off, odd 3..31 (default 3)"},
-    {"open_kernel_shape", "Opening kernel shape: 'rect' (default), 'cross' or 'ellipse'"},
-    {"threshold_curve", "t(d) control points [(depth m, threshold m), ...], or 'd:t, ...' text; depths increasing, "
-                        "thresholds non-decreasing (default: the Kinect v2 curve)"},
-    {"range_min", "Shorter beams are reported as -Inf (REP 117) [m] (default 0.1)"},
-    {"range_max", "Longer beams are reported as +Inf [m], > range_min (default 10)"},
-    {"scan_beams", "Number of beams [-]; 0 = the image width (default)"},
-    {"scan_fov", "Angular width of the scan [rad], centred on forward; 0 = the camera's (default)"},
-    {"surface_band", "Beam range: 0 = nearest kept pixel (default); > 0 = mean of the beam's ranges within "
-                     "surface_band * t(r) of its nearest [-], 0..10"},
-    {"cliff_scan", "Fill Result.cliff_ranges: nearest below-floor pixel per beam (default True)"},
-    {"cliff_in_scan", "Also put below-floor beams into the scan as obstacles (default False)"},
-    {"cliff_min_pixels", "Below-floor pixels a beam needs before it reports a cliff [px], >= 1 (default 3)"},
-    {"confidence_window", "Ranges in each beam's rolling mean, this one included [frames] (default 5)"},
-    {"confidence_distance", "d_threshold of eq 4.23: distance from the mean at which intensity is 0 [m] (default 0.3)"},
-    {"min_intensity", "Intensity at or below which a filtered beam becomes NaN [-], 0..1 (default 0.2)"},
-    {"intensity_filter", "NaN the finite beams with intensity <= min_intensity (default False)"},
-    {"refine_floor", "Correct the pose from the frame's own floor before predicting the planes (default True)"},
-    {"floor_max_height_error", "Largest correction of the sensor height by the floor fit [m] (default 0.08)"},
-    {"floor_max_pitch_error", "Largest correction of the pitch by the floor fit [rad] (default 0.035)"},
-    {"floor_max_roll_error", "Largest correction of the roll by the floor fit [rad] (default 0.035)"},
-    {"floor_min_pixels", "Fewest image pixels on the fitted floor to accept the fit [px] (default 4000)"},
-    {"floor_learn_time", "Time constant of the learned floor correction [s]; 0 = learn nothing (default 2)"},
-    {"num_threads", "OpenMP threads for one frame [-]; 0 = OpenMP's default (default 0)"},
-};
-
 /** Depth in float32 is metres: an image whose valid pixels have a median above this is plainly millimetres. */
 constexpr float kMillimetreMedian = 100.0f;
 
@@ -327,63 +293,115 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
 
 
 
-void setConfigField(Config& c, const std::string& key, const py::handle& v)
+/** The threshold curve from 'd:t, ...' text or (depth, threshold) pairs. */
+std::vector<CurvePoint> curveOf(const py::handle& v)
 {
-  auto num = [&](double& field) { field = py::cast<double>(v); };
-  if (key == "sensor_height") num(c.sensor_height);
-  else if (key == "sensor_pitch") num(c.sensor_pitch);
-  else if (key == "sensor_roll") num(c.sensor_roll);
-  else if (key == "ceiling_height") num(c.ceiling_height);
-  else if (key == "max_depth") num(c.max_depth);
-  else if (key == "geometry") c.geometry = geometryFromString(py::cast<std::string>(v));
-  else if (key == "projection") c.projection = projectionFromString(py::cast<std::string>(v));
-  else if (key == "open_kernel_size") c.open_kernel_size = py::cast<int>(v);
-  else if (key == "open_kernel_shape") c.open_kernel_shape = kernelShapeFromString(py::cast<std::string>(v));
-  else if (key == "threshold_curve")
+  if (py::isinstance<py::str>(v))
+    return parseThresholdCurve(py::cast<std::string>(v));
+  std::vector<CurvePoint> pts;
+  for (const auto& p : v)
   {
-    if (py::isinstance<py::str>(v))
-      c.threshold_curve = parseThresholdCurve(py::cast<std::string>(v));
-    else
-    {
-      std::vector<CurvePoint> pts;
-      for (const auto& p : v)
-      {
-        auto pair = py::cast<std::pair<double, double>>(p);
-        pts.push_back({pair.first, pair.second});
-      }
-      validateThresholdCurve(pts);
-      c.threshold_curve = pts;
-    }
+    auto pair = py::cast<std::pair<double, double>>(p);
+    pts.push_back({pair.first, pair.second});
   }
-  else if (key == "range_min") num(c.range_min);
-  else if (key == "range_max") num(c.range_max);
-  else if (key == "scan_beams") c.scan_beams = py::cast<int>(v);
-  else if (key == "scan_fov") num(c.scan_fov);
-  else if (key == "confidence_window") c.confidence_window = py::cast<int>(v);
-  else if (key == "confidence_distance") num(c.confidence_distance);
-  else if (key == "min_intensity") num(c.min_intensity);
-  else if (key == "intensity_filter") c.intensity_filter = py::cast<bool>(v);
-  else if (key == "cliff_scan") c.cliff_scan = py::cast<bool>(v);
-  else if (key == "cliff_in_scan") c.cliff_in_scan = py::cast<bool>(v);
-  else if (key == "surface_band") c.surface_band = py::cast<double>(v);
-  else if (key == "cliff_min_pixels") c.cliff_min_pixels = py::cast<int>(v);
-  else if (key == "refine_floor") c.refine_floor = py::cast<bool>(v);
-  else if (key == "floor_max_height_error") num(c.floor_max_height_error);
-  else if (key == "floor_max_pitch_error") num(c.floor_max_pitch_error);
-  else if (key == "floor_max_roll_error") num(c.floor_max_roll_error);
-  else if (key == "floor_min_pixels") c.floor_min_pixels = py::cast<int>(v);
-  else if (key == "floor_learn_time") num(c.floor_learn_time);
-  else if (key == "num_threads") c.num_threads = py::cast<int>(v);
-  else
-    throw py::type_error("Config: unknown field '" + key + "'");
+  validateThresholdCurve(pts);
+  return pts;
 }
 
-const char* kConfigFields[] = {"sensor_height", "sensor_pitch", "sensor_roll", "ceiling_height", "max_depth",
-                               "geometry", "projection", "open_kernel_size", "open_kernel_shape",
-                               "threshold_curve", "range_min", "range_max", "scan_beams", "scan_fov",
-                               "surface_band", "cliff_scan", "cliff_in_scan", "cliff_min_pixels", "confidence_window", "confidence_distance", "min_intensity", "intensity_filter",
-                               "refine_floor", "floor_max_height_error", "floor_max_pitch_error",
-                               "floor_max_roll_error", "floor_min_pixels", "floor_learn_time", "num_threads"};
+/** A field's value as Python sees it (float, int, bool, str, or the curve as (depth, threshold) pairs). */
+py::object fieldValue(const Config& c, const ConfigField& f)
+{
+  switch (f.kind)
+  {
+    case FieldKind::kReal:
+      return py::float_(c.*f.real);
+    case FieldKind::kInteger:
+      return py::int_(c.*f.integer);
+    case FieldKind::kFlag:
+      return py::bool_(c.*f.flag);
+    case FieldKind::kChoice:
+      return py::str(f.text(c));
+    case FieldKind::kCurve:
+      break;
+  }
+  py::list out;
+  for (const auto& p : c.threshold_curve)
+    out.append(py::make_tuple(p.depth, p.threshold));
+  return out;
+}
+
+void setFieldValue(Config& c, const ConfigField& f, const py::handle& v)
+{
+  switch (f.kind)
+  {
+    case FieldKind::kReal:
+      c.*f.real = py::cast<double>(v);
+      return;
+    case FieldKind::kInteger:
+      c.*f.integer = py::cast<int>(v);
+      return;
+    case FieldKind::kFlag:
+      c.*f.flag = py::cast<bool>(v);
+      return;
+    case FieldKind::kChoice:
+      f.setText(c, py::cast<std::string>(v));
+      return;
+    case FieldKind::kCurve:
+      c.threshold_curve = curveOf(v);
+      return;
+  }
+}
+
+const ConfigField& fieldNamed(const std::string& name)
+{
+  try
+  {
+    return configField(name);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw py::type_error(e.what());
+  }
+}
+
+/** "Height of ... [m], 0.01..100, default 1.1": a field's docstring, from the table and the defaults. */
+std::string fieldDoc(const ConfigField& f)
+{
+  std::ostringstream s;
+  s << f.doc << " [" << f.unit << "]";
+  if (f.kind == FieldKind::kReal || f.kind == FieldKind::kInteger)
+    s << ", " << f.lo << ".." << f.hi;
+  if (f.kind == FieldKind::kChoice)
+  {
+    s << ": ";
+    for (std::size_t i = 0; i < f.choices.size(); ++i)
+      s << (i ? ", " : "") << "'" << f.choices[i] << "'";
+  }
+  s << " (default " << f.text(Config{}) << ")";
+  return s.str();
+}
+
+/** The table as Python data: [{'name', 'kind', 'min', 'max', 'unit', 'doc', 'choices', 'default'}, ...]. */
+py::list fieldTable()
+{
+  static const char* kinds[] = {"real", "integer", "flag", "choice", "curve"};
+  py::list out;
+  const Config defaults;
+  for (const ConfigField& f : configFields())
+  {
+    py::dict row;
+    row["name"] = f.name;
+    row["kind"] = kinds[static_cast<int>(f.kind)];
+    row["min"] = f.lo;
+    row["max"] = f.hi;
+    row["unit"] = f.unit;
+    row["doc"] = f.doc;
+    row["choices"] = f.choices;
+    row["default"] = fieldValue(defaults, f);
+    out.append(row);
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -419,82 +437,40 @@ PYBIND11_MODULE(_core, m)
              }
              for (const auto& item : kw)
                if (py::cast<std::string>(item.first) != "sensor_model")
-                 setConfigField(c, py::cast<std::string>(item.first), item.second);
+                 setFieldValue(c, fieldNamed(py::cast<std::string>(item.first)), item.second);
              c.validate();
              return c;
            }),
            "Config(**fields): the defaults with these fields changed (names as the ROS parameters); "
            "sensor_model=NAME first applies that sensor's preset (threshold_curve, range_max, cliff_min_pixels), "
            "which fields given explicitly override.")
-      .def_readwrite("sensor_height", &Config::sensor_height)
-      .def_readwrite("sensor_pitch", &Config::sensor_pitch)
-      .def_readwrite("sensor_roll", &Config::sensor_roll)
-      .def_readwrite("ceiling_height", &Config::ceiling_height)
-      .def_readwrite("max_depth", &Config::max_depth)
-      .def_property(
-          "geometry", [](const Config& c) { return toString(c.geometry); },
-          [](Config& c, const std::string& s) { c.geometry = geometryFromString(s); })
-      .def_property(
-          "projection", [](const Config& c) { return toString(c.projection); },
-          [](Config& c, const std::string& s) { c.projection = projectionFromString(s); })
-      .def_readwrite("open_kernel_size", &Config::open_kernel_size)
-      .def_property(
-          "open_kernel_shape", [](const Config& c) { return toString(c.open_kernel_shape); },
-          [](Config& c, const std::string& s) { c.open_kernel_shape = kernelShapeFromString(s); })
-      .def_property(
-          "threshold_curve",
-          [](const Config& c) {
-            std::vector<std::pair<double, double>> out;
-            for (const auto& p : c.threshold_curve)
-              out.emplace_back(p.depth, p.threshold);
-            return out;
-          },
-          [](Config& c, const py::object& v) { setConfigField(c, "threshold_curve", v); })
       .def_property_readonly("threshold_curve_text", [](const Config& c) { return formatThresholdCurve(c.threshold_curve); })
-      .def_readwrite("range_min", &Config::range_min)
-      .def_readwrite("range_max", &Config::range_max)
-      .def_readwrite("scan_beams", &Config::scan_beams)
-      .def_readwrite("scan_fov", &Config::scan_fov)
-      .def_readwrite("cliff_scan", &Config::cliff_scan)
-      .def_readwrite("cliff_in_scan", &Config::cliff_in_scan)
-      .def_readwrite("surface_band", &Config::surface_band)
-      .def_readwrite("cliff_min_pixels", &Config::cliff_min_pixels)
-      .def_readwrite("confidence_window", &Config::confidence_window)
-      .def_readwrite("confidence_distance", &Config::confidence_distance)
-      .def_readwrite("min_intensity", &Config::min_intensity)
-      .def_readwrite("intensity_filter", &Config::intensity_filter)
-      .def_readwrite("refine_floor", &Config::refine_floor)
-      .def_readwrite("floor_max_height_error", &Config::floor_max_height_error)
-      .def_readwrite("floor_max_pitch_error", &Config::floor_max_pitch_error)
-      .def_readwrite("floor_max_roll_error", &Config::floor_max_roll_error)
-      .def_readwrite("floor_min_pixels", &Config::floor_min_pixels)
-      .def_readwrite("floor_learn_time", &Config::floor_learn_time)
-      .def_readwrite("num_threads", &Config::num_threads)
       .def("validate", &Config::validate, "Raises ValueError naming the field, its value and the allowed range.")
       .def("to_dict", [](const Config& c) {
-        py::dict d;
-        py::object self = py::cast(c);
-        for (const char* f : kConfigFields)
-          d[f] = self.attr(f);
-        d["threshold_curve"] = formatThresholdCurve(c.threshold_curve);
+        py::dict d;  // the values as the ROS parameters hold them: the curve as its text
+        for (const ConfigField& f : configFields())
+          d[f.name] = f.kind == FieldKind::kCurve ? py::str(f.text(c)) : fieldValue(c, f);
         return d;
       })
       .def("__repr__", [](const Config& c) {
-        py::object self = py::cast(c);
         std::string s = "Config(";
-        bool first = true;
-        for (const char* f : kConfigFields)
-        {
-          s += (first ? "" : ", ") + std::string(f) + "=" + std::string(py::repr(self.attr(f)));
-          first = false;
-        }
+        for (const ConfigField& f : configFields())
+          s += (&f == &configFields().front() ? "" : ", ") + std::string(f.name) + "=" +
+               std::string(py::repr(fieldValue(c, f)));
         return s + ")";
       });
-
   {
-    const py::object fields = m.attr("Config").attr("__dict__");
-    for (const auto& [name, doc] : kConfigDocs)
-      fields[name].attr("__doc__") = doc;
+    // Every field an attribute, from the one table (config_fields.h), with its docstring.
+    auto config = py::reinterpret_borrow<py::class_<Config>>(m.attr("Config"));
+    for (const ConfigField& f : configFields())
+    {
+      const ConfigField* row = &f;
+      config.def_property(
+          f.name, [row](const Config& c) { return fieldValue(c, *row); },
+          [row](Config& c, const py::object& v) { setFieldValue(c, *row, v); });
+      config.attr("__dict__")[f.name].attr("__doc__") = fieldDoc(f);
+    }
+    m.attr("CONFIG_FIELDS") = fieldTable();
   }
   py::class_<SensorPose>(m, "SensorPose",
                          "The sensor's pose relative to the floor: height [m], pitch [rad, + looks down], roll [rad, + "
@@ -650,7 +626,7 @@ PYBIND11_MODULE(_core, m)
       "threshold_lut",
       [](const py::object& curve, const std::string& encoding, double max_depth) {
         Config c;
-        setConfigField(c, "threshold_curve", curve);
+        c.threshold_curve = curveOf(curve);
         const Encoding e = encoding == "8UC1" ? Encoding::kMono8
                            : encoding == "16UC1" ? Encoding::kMono16
                            : encoding == "32FC1" ? Encoding::kFloat32
@@ -665,7 +641,7 @@ PYBIND11_MODULE(_core, m)
       "evaluate_curve",
       [](const py::object& curve, double depth) {
         Config c;
-        setConfigField(c, "threshold_curve", curve);
+        c.threshold_curve = curveOf(curve);
         return evaluateCurve(c.threshold_curve, depth);
       },
       py::arg("curve"), py::arg("depth"),
@@ -675,7 +651,7 @@ PYBIND11_MODULE(_core, m)
       "evaluate_curve",
       [](const py::object& curve, const py::array_t<double, py::array::forcecast>& depths) {
         Config c;
-        setConfigField(c, "threshold_curve", curve);
+        c.threshold_curve = curveOf(curve);
         py::array_t<double> out(depths.request().shape);
         const double* in = depths.data();
         double* o = out.mutable_data();

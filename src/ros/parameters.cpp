@@ -8,6 +8,7 @@
 #include <boost/any.hpp>
 #include <xmlrpcpp/XmlRpcValue.h>
 
+#include "kinect_pipeline/config_fields.h"
 #include "kinect_pipeline/sensor_model.h"
 #include "kinect_pipeline/threshold_curve.h"
 
@@ -37,6 +38,32 @@ std::string named(const std::string& message)
   return m;
 }
 
+/** The core field @p f from the dynamic_reconfigure config of the same name. @throw std::invalid_argument. */
+void copyField(const ConfigField& f, const KinectPipelineConfig& c, Config& k)
+{
+  const Description* d = findDescription(f.name);
+  if (!d)
+    throw std::invalid_argument(std::string("Config.") + f.name + " is not in cfg/KinectPipeline.cfg (a build error)");
+  boost::any v;
+  d->getValue(c, v);
+  switch (f.kind)
+  {
+    case FieldKind::kReal:
+      f.setNumber(k, boost::any_cast<double>(v));
+      break;
+    case FieldKind::kInteger:
+      f.setNumber(k, boost::any_cast<int>(v));
+      break;
+    case FieldKind::kFlag:
+      f.setNumber(k, boost::any_cast<bool>(v) ? 1.0 : 0.0);
+      break;
+    case FieldKind::kChoice:
+    case FieldKind::kCurve:
+      f.setText(k, boost::any_cast<std::string>(v));
+      break;
+  }
+}
+
 /** Every problem of a config, and the settings it gives where they are fine. */
 std::vector<std::string> settingsProblems(const KinectPipelineConfig& c, NodeSettings& s)
 {
@@ -52,35 +79,8 @@ std::vector<std::string> settingsProblems(const KinectPipelineConfig& c, NodeSet
     }
   };
   Config& k = s.core;
-  k.sensor_height = c.sensor_height;
-  k.sensor_pitch = c.sensor_pitch;
-  k.sensor_roll = c.sensor_roll;
-  k.ceiling_height = c.ceiling_height;
-  k.max_depth = c.max_depth;
-  attempt([&] { k.geometry = geometryFromString(c.geometry); });
-  attempt([&] { k.projection = projectionFromString(c.projection); });
-  k.open_kernel_size = c.open_kernel_size;
-  attempt([&] { k.open_kernel_shape = kernelShapeFromString(c.open_kernel_shape); });
-  attempt([&] { k.threshold_curve = parseThresholdCurve(c.threshold_curve); });
-  k.range_min = c.range_min;
-  k.range_max = c.range_max;
-  k.scan_beams = c.scan_beams;
-  k.scan_fov = c.scan_fov;
-  k.cliff_scan = c.cliff_scan;
-  k.cliff_in_scan = c.cliff_in_scan;
-  k.surface_band = c.surface_band;
-  k.cliff_min_pixels = c.cliff_min_pixels;
-  k.confidence_window = c.confidence_window;
-  k.confidence_distance = c.confidence_distance;
-  k.min_intensity = c.min_intensity;
-  k.intensity_filter = c.intensity_filter;
-  k.refine_floor = c.refine_floor;
-  k.floor_max_height_error = c.floor_max_height_error;
-  k.floor_max_pitch_error = c.floor_max_pitch_error;
-  k.floor_max_roll_error = c.floor_max_roll_error;
-  k.floor_min_pixels = c.floor_min_pixels;
-  k.floor_learn_time = c.floor_learn_time;
-  k.num_threads = c.num_threads;
+  for (const ConfigField& f : configFields())
+    attempt([&] { copyField(f, c, k); });
   for (const std::string& p : k.problems())
     problems.push_back(named(p));
 
@@ -290,12 +290,13 @@ void applySensorModelParameters(const ros::NodeHandle& pnh, const std::string& n
   {
     if (pnh.hasParam(field))
       continue;
-    if (field == "threshold_curve")
-      pnh.setParam(field, formatThresholdCurve(preset.threshold_curve));
-    else if (field == "range_max")
-      pnh.setParam(field, preset.range_max);
-    else if (field == "cliff_min_pixels")
-      pnh.setParam(field, preset.cliff_min_pixels);
+    const ConfigField& f = configField(field);
+    if (f.kind == FieldKind::kReal)
+      pnh.setParam(field, f.number(preset));
+    else if (f.kind == FieldKind::kInteger)
+      pnh.setParam(field, static_cast<int>(f.number(preset)));
+    else
+      pnh.setParam(field, f.text(preset));
     set += (set.empty() ? "" : ", ") + field;
   }
   ROS_INFO("%s: sensor_model %s (%s): %s from the preset", node_name.c_str(), name.c_str(),

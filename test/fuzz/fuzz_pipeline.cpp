@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <map>
 #include <stdexcept>
 #include <string>
 #include <typeinfo>
@@ -20,6 +21,7 @@
 
 #include "kinect_pipeline/calibration.h"
 #include "kinect_pipeline/config.h"
+#include "kinect_pipeline/config_fields.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/pose.h"
 #include "kinect_pipeline/settings_exchange.h"
@@ -78,20 +80,24 @@ Camera camera(FuzzedDataProvider& in)
   return c;
 }
 
-Config config(FuzzedDataProvider& in)
+/** Where a field's values are drawn: its valid range (config_fields.h), narrowed where that range is far wider
+ *  than a fuzzer's 48-pixel images need (and sometimes reaching below it, to the values Config refuses). */
+std::pair<double, double> span(const ConfigField& f)
 {
-  Config k;
-  if (in.ConsumeBool())
-    return k;  // the defaults, often
-  k.sensor_height = number(in, 0.05, 3.0);
-  k.sensor_pitch = number(in, -1.6, 1.6);
-  k.sensor_roll = number(in, -1.6, 1.6);
-  k.ceiling_height = number(in, 0.1, 5.0);
-  k.max_depth = number(in, 0.1, 20.0);
-  k.geometry = in.ConsumeBool() ? Geometry::kExact : Geometry::kThesis;
-  k.projection = in.ConsumeBool() ? Projection::kHorizontal : Projection::kColumn;
-  k.open_kernel_size = integer(in, 0, 9);
-  k.open_kernel_shape = static_cast<KernelShape>(in.ConsumeIntegralInRange<int>(0, 2));
+  static const std::map<std::string, std::pair<double, double>> narrow{
+      {"sensor_height", {0.05, 3.0}},      {"ceiling_height", {0.1, 5.0}},       {"max_depth", {0.1, 20.0}},
+      {"open_kernel_size", {0, 9}},        {"range_min", {0.0, 2.0}},            {"range_max", {0.5, 12.0}},
+      {"scan_beams", {0, 300}},            {"cliff_min_pixels", {0, 5}},         {"confidence_window", {0, 8}},
+      {"confidence_distance", {0.001, 1.0}}, {"num_threads", {0, 3}},            {"floor_max_height_error", {0.0, 0.3}},
+      {"floor_max_pitch_error", {0.0, 0.2}}, {"floor_max_roll_error", {0.0, 0.2}}, {"floor_min_pixels", {0, 3000}},
+      {"floor_learn_time", {0.0, 5.0}},
+  };
+  const auto it = narrow.find(f.name);
+  return it != narrow.end() ? it->second : std::make_pair(f.lo, f.hi);
+}
+
+void curve(FuzzedDataProvider& in, Config& k)
+{
   if (in.ConsumeBool())
   {
     const std::string text = in.ConsumeRandomLengthString(64);
@@ -104,24 +110,36 @@ Config config(FuzzedDataProvider& in)
     for (int i = 0; i < n; ++i)
       k.threshold_curve.push_back({number(in, 0.1, 12.0), number(in, 0.001, 1.0)});
   }
-  k.range_min = number(in, 0.0, 2.0);
-  k.range_max = number(in, 0.5, 12.0);
-  k.scan_beams = integer(in, 0, 300);
-  k.scan_fov = number(in, 0.0, 6.3);
-  k.confidence_window = integer(in, 0, 8);
-  k.confidence_distance = number(in, 0.001, 1.0);
-  k.min_intensity = number(in, 0.0, 1.0);
-  k.intensity_filter = in.ConsumeBool();
-  k.num_threads = integer(in, 0, 3);
-  k.cliff_scan = in.ConsumeBool();
-  k.cliff_in_scan = in.ConsumeBool();
-  k.cliff_min_pixels = integer(in, 0, 5);
-  k.refine_floor = in.ConsumeBool();
-  k.floor_max_height_error = number(in, 0.0, 0.3);
-  k.floor_max_pitch_error = number(in, 0.0, 0.2);
-  k.floor_max_roll_error = number(in, 0.0, 0.2);
-  k.floor_min_pixels = integer(in, 0, 3000);
-  k.floor_learn_time = number(in, 0.0, 5.0);
+}
+
+/** Every field of the table, drawn as its kind says. */
+Config config(FuzzedDataProvider& in)
+{
+  Config k;
+  if (in.ConsumeBool())
+    return k;  // the defaults, often
+  for (const ConfigField& f : configFields())
+  {
+    const auto [lo, hi] = span(f);
+    switch (f.kind)
+    {
+      case FieldKind::kReal:
+        f.setNumber(k, number(in, lo, hi));
+        break;
+      case FieldKind::kInteger:
+        f.setNumber(k, integer(in, static_cast<int>(lo), static_cast<int>(hi)));
+        break;
+      case FieldKind::kFlag:
+        f.setNumber(k, in.ConsumeBool() ? 1.0 : 0.0);
+        break;
+      case FieldKind::kChoice:
+        f.setText(k, f.choices[in.ConsumeIntegralInRange<std::size_t>(0, f.choices.size() - 1)]);
+        break;
+      case FieldKind::kCurve:
+        curve(in, k);
+        break;
+    }
+  }
   return k;
 }
 

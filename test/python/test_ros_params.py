@@ -83,6 +83,30 @@ def test_cfg_defaults_are_the_core_defaults() -> None:
             assert default == value, name
 
 
+CFG_TYPES = {"real": "double", "integer": "int", "flag": "bool", "choice": "str", "curve": "str"}
+
+
+def test_cfg_declares_every_field_of_the_core_table_with_its_type_and_range() -> None:
+    # The .cfg is dynamic_reconfigure's copy of the table (its generator runs before the core is built).
+    params = cfg_params()
+    for f in kp.CONFIG_FIELDS:
+        p = params.get(f["name"])
+        assert p is not None, f"core field {f['name']} is not in cfg/KinectPipeline.cfg"
+        assert p["type"] == CFG_TYPES[f["kind"]], f["name"]
+        assert f"[{f['unit']}]" in p["description"], f"{f['name']}: the .cfg's unit is not [{f['unit']}]"
+        if f["kind"] in ("real", "integer"):
+            assert (p["min"], p["max"]) == pytest.approx((f["min"], f["max"])), f["name"]
+        if f["kind"] == "choice":
+            assert sorted(c["value"] for c in eval(p["edit_method"])["enum"]) == sorted(f["choices"]), f["name"]
+
+
+def test_the_core_table_lists_every_member_of_config() -> None:
+    header = (ROOT / "include/kinect_pipeline/config.h").read_text()
+    body = header[header.index("struct Config\n{") : header.index("std::vector<std::string> problems() const")]
+    members = re.findall(r"^  [\w:<>]+ (\w+) = ", body, re.M)
+    assert members == [f["name"] for f in kp.CONFIG_FIELDS]
+
+
 def test_topic_tables_match_the_node() -> None:
     src = (ROOT / "src/ros/kinect_pipeline_ros.cpp").read_text()
     advertised = set(re.findall(r'advertise(?:<[^>]*>)?\("([^"]+)"', src))

@@ -7,6 +7,7 @@
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
 
+#include "kinect_pipeline/config_fields.h"
 #include "kinect_pipeline/ros/conversions.h"
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
 
@@ -218,19 +219,51 @@ TEST(Settings, DefaultsAreTheCoresDefaults)
 {
   const NodeSettings s = settingsFromConfig(KinectPipelineConfig::__getDefault__());
   const Config d;
-  EXPECT_EQ(s.core.sensor_height, d.sensor_height);
-  EXPECT_EQ(s.core.ceiling_height, d.ceiling_height);
-  EXPECT_EQ(s.core.max_depth, d.max_depth);
-  EXPECT_EQ(s.core.open_kernel_size, d.open_kernel_size);
-  EXPECT_EQ(formatThresholdCurve(s.core.threshold_curve), formatThresholdCurve(d.threshold_curve));
-  EXPECT_EQ(s.core.range_min, d.range_min);
-  EXPECT_EQ(s.core.range_max, d.range_max);
-  EXPECT_EQ(s.core.confidence_window, d.confidence_window);
-  EXPECT_EQ(s.core.confidence_distance, d.confidence_distance);
-  EXPECT_EQ(s.core.min_intensity, d.min_intensity);
-  EXPECT_EQ(s.core.intensity_filter, d.intensity_filter);
-  EXPECT_EQ(s.core.geometry, d.geometry);
-  EXPECT_EQ(s.core.projection, d.projection);
+  for (const ConfigField& f : configFields())
+    if (std::string(f.name) != "num_threads")
+      EXPECT_EQ(f.text(s.core), f.text(d)) << f.name;
+  EXPECT_EQ(s.core.num_threads, 1);  // the node's own default: no idle OpenMP thread spinning beside the driver
+}
+
+/** A valid value of @p f other than its default, as the .cfg's message would carry it. */
+void setOther(const ConfigField& f, dynamic_reconfigure::Config& msg, std::string& want)
+{
+  const Config d;
+  for (auto& p : msg.doubles)
+    if (p.name == f.name)
+    {
+      p.value = f.number(d) == f.lo ? f.lo + 0.01 * (f.hi - f.lo) : 0.9 * f.number(d) + 0.1 * f.lo;
+      want = std::to_string(p.value);
+    }
+  for (auto& p : msg.ints)
+    if (p.name == f.name)
+      want = std::to_string(p.value += 2);
+  for (auto& p : msg.bools)
+    if (p.name == f.name)
+      want = (p.value = !p.value) ? "true" : "false";
+  for (auto& p : msg.strs)
+    if (p.name == f.name)
+      want = p.value = f.kind == FieldKind::kCurve ? "1:0.05, 4:0.2" : f.choices.back();
+}
+
+TEST(Settings, EveryCoreFieldTravelsFromItsParameter)
+{
+  for (const ConfigField& f : configFields())
+  {
+    KinectPipelineConfig c = KinectPipelineConfig::__getDefault__();
+    dynamic_reconfigure::Config msg;
+    c.__toMessage__(msg);
+    std::string want;
+    setOther(f, msg, want);
+    ASSERT_FALSE(want.empty()) << f.name << " is not a parameter of the .cfg";
+    c.__fromMessage__(msg);
+    const Config got = settingsFromConfig(c).core;
+    if (f.kind == FieldKind::kReal)
+      EXPECT_EQ(std::to_string(f.number(got)), want) << f.name;
+    else
+      EXPECT_EQ(f.text(got), want) << f.name;
+    EXPECT_NE(f.text(got), f.text(Config{})) << f.name;
+  }
 }
 
 TEST(Settings, EveryProblemIsNamedAtOnceAsAParameter)
