@@ -5,6 +5,7 @@
 
 #include "kinect_pipeline/camera.h"
 #include "kinect_pipeline/config.h"
+#include "kinect_pipeline/config_fields.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -99,4 +100,32 @@ TEST(Config, EnumNames)
   EXPECT_EQ(kernelShapeFromString("ellipse"), KernelShape::kEllipse);
   expectInvalid([] { geometryFromString("Exact"); }, {"geometry", "'Exact'", "'exact'"});
   expectInvalid([] { projectionFromString("radial"); }, {"projection", "radial"});
+}
+
+TEST(ConfigFields, EveryNumberOutsideItsRangeIsNamedAndEveryTextRoundTrips)
+{
+  for (const ConfigField& f : configFields())
+  {
+    Config c;
+    EXPECT_EQ(configField(f.name).name, f.name);
+    if (f.kind == FieldKind::kReal || f.kind == FieldKind::kInteger)
+    {
+      for (const double bad : {f.lo - 1.0, f.hi + 1.0})
+      {
+        f.setNumber(c, bad);
+        const auto all = c.problems();
+        ASSERT_FALSE(all.empty()) << f.name << " = " << bad;
+        EXPECT_EQ(all.front().find(std::string("Config.") + f.name + " = "), 0u) << all.front();
+      }
+      f.setNumber(c, f.lo);
+      EXPECT_EQ(f.rangeProblem(c), "") << f.name;
+    }
+    Config back;
+    f.setText(back, f.text(Config{}));
+    EXPECT_EQ(f.text(back), f.text(Config{})) << f.name;
+  }
+  expectInvalid([] { configField("sensor_hieght"); }, {"sensor_hieght", "sensor_height"});
+  Config c;
+  expectInvalid([&] { configField("open_kernel_size").setNumber(c, 2.5); }, {"open_kernel_size", "2.5", "whole"});
+  expectInvalid([&] { configField("geometry").setText(c, "exakt"); }, {"exakt", "'exact'"});
 }
