@@ -1,4 +1,5 @@
 // KinectPipelineRos: what /diagnostics says, and the node's --help.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -95,9 +96,12 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   std::uint64_t total = 0;
   for (auto n : label_totals_)
     total += n;
-  const char* names[kNumLabels] = {"kept", "invalid", "floor", "above ceiling", "below floor"};
   for (int k = 0; k < kNumLabels; ++k)
-    stat.add(std::string("fraction ") + names[k], total ? static_cast<double>(label_totals_[k]) / total : 0.0);
+  {
+    std::string name = kLabelNames[k];  // the core's list; "above_ceiling" reads "fraction above ceiling"
+    std::replace(name.begin(), name.end(), '_', ' ');
+    stat.add("fraction " + name, total ? static_cast<double>(label_totals_[k]) / total : 0.0);
+  }
 }
 
 void KinectPipelineRos::diagnoseFloor(diagnostic_updater::DiagnosticStatusWrapper& stat)
