@@ -1,3 +1,4 @@
+// Floor calibration (MSAC plane + least squares): how to use it and read its warnings in docs/tools.md, "Calibration".
 #include "kinect_pipeline/calibration.h"
 
 #include <algorithm>

@@ -1,3 +1,5 @@
+// compressedDepth payloads (image_transport's format): why the node decodes them itself, docs/ros_node.md,
+// "compressedDepth without the plugin".
 #include "kinect_pipeline/compressed_depth.h"
 
 #include <algorithm>

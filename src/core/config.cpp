@@ -1,3 +1,4 @@
+// Config: the fields' table is config_fields.cpp; the parameters are tabled in README.md, "Parameters".
 #include "kinect_pipeline/config.h"
 
 #include <cmath>

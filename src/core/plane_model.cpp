@@ -1,3 +1,4 @@
+// The floor and ceiling predicted per pixel from the pose: the geometry in docs/how_it_works.md, "The steps".
 #include "kinect_pipeline/plane_model.h"
 
 #include <cmath>

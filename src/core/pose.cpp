@@ -1,3 +1,4 @@
+// Poses from transforms and IMU attitudes (REP 103/105 frames): docs/how_it_works.md and docs/ros_node.md, "Fallbacks".
 #include "kinect_pipeline/pose.h"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// Sensor presets and their noise models; sources and checks on real frames in docs/sensor_models.md.
 #include "kinect_pipeline/sensor_model.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// Rendered scenes with exact ground truth for the tests and the quality tables (docs/quality.md).
 #include "kinect_pipeline/synthetic.h"
 
 #include <cmath>

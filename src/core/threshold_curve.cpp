@@ -1,3 +1,5 @@
+// The threshold curve t(d): where it comes from and how to fit one, docs/how_it_works.md, "Threshold curve", and
+// docs/tools.md, "Threshold curve from data".
 #include "kinect_pipeline/threshold_curve.h"
 
 #include <algorithm>
