@@ -36,6 +36,11 @@ VARIANTS: dict[str, tuple[dict[str, Any] | None, bool]] = {
 HEIGHT_CLASSES = ((0.05, 0.10), (0.10, 0.30), (0.30, 2.0))
 
 
+def _pct(x: float) -> str:
+    """A fraction as a percentage for the tables; NaN (not measured) as a dash."""
+    return "–" if math.isnan(x) else f"{100 * x:.2f}"
+
+
 @dataclass
 class Row:
     condition: str
@@ -48,14 +53,11 @@ class Row:
     range_error_cm: float
 
     def markdown(self) -> str:
-        def pct(x: float) -> str:
-            return "–" if math.isnan(x) else f"{100 * x:.2f}"
-
-        kept = " | ".join(pct(k) for k in self.kept)
+        kept = " | ".join(_pct(k) for k in self.kept)
         err = "–" if math.isnan(self.range_error_cm) else f"{self.range_error_cm:.1f}"
         return (
-            f"| {self.condition} | {self.variant} | {pct(self.floor_removed)} | {kept} | {pct(self.phantom)} "
-            f"| {pct(self.phantom_noise)} | {pct(self.missed)} | {err} |"
+            f"| {self.condition} | {self.variant} | {_pct(self.floor_removed)} | {kept} | {_pct(self.phantom)} "
+            f"| {_pct(self.phantom_noise)} | {_pct(self.missed)} | {err} |"
         )
 
 
@@ -202,12 +204,9 @@ class PoseRow:
     ms: float
 
     def markdown(self) -> str:
-        def pct(x: float) -> str:
-            return "–" if math.isnan(x) else f"{100 * x:.2f}"
-
         return (
-            f"| {self.condition} | {self.method} | {pct(self.floor_removed)} | {pct(self.obstacles_kept)} "
-            f"| {pct(self.phantom)} | {pct(self.false_cliff)} | {pct(self.accepted)} | {self.ms:.2f} |"
+            f"| {self.condition} | {self.method} | {_pct(self.floor_removed)} | {_pct(self.obstacles_kept)} "
+            f"| {_pct(self.phantom)} | {_pct(self.false_cliff)} | {_pct(self.accepted)} | {self.ms:.2f} |"
         )
 
 
