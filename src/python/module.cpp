@@ -293,16 +293,27 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
 
 
 
-/** The threshold curve from 'd:t, ...' text or (depth, threshold) pairs. */
+/** The threshold curve from 'd:t, ...' text or (depth, threshold) pairs. @throw py::type_error for other types. */
 std::vector<CurvePoint> curveOf(const py::handle& v)
 {
   if (py::isinstance<py::str>(v))
     return parseThresholdCurve(py::cast<std::string>(v));
   std::vector<CurvePoint> pts;
-  for (const auto& p : v)
+  try
   {
-    auto pair = py::cast<std::pair<double, double>>(p);
-    pts.push_back({pair.first, pair.second});
+    if (!py::isinstance<py::iterable>(v))
+      throw py::cast_error();
+    for (const auto& p : v)
+    {
+      auto pair = py::cast<std::pair<double, double>>(p);
+      pts.push_back({pair.first, pair.second});
+    }
+  }
+  catch (const py::cast_error&)
+  {
+    throw py::type_error("threshold_curve = " + std::string(py::repr(v)) + " (" +
+                         std::string(py::str(v.get_type().attr("__name__"))) +
+                         "): expected 'd:t, ...' text or (depth, threshold) pairs [m]");
   }
   validateThresholdCurve(pts);
   return pts;
@@ -328,6 +339,41 @@ py::object fieldValue(const Config& c, const ConfigField& f)
   for (const auto& p : c.threshold_curve)
     out.append(py::make_tuple(p.depth, p.threshold));
   return out;
+}
+
+/** "a number [m]", "an integer [px]", "True or False", ...: what a field takes, for type errors. */
+std::string expectedOf(const ConfigField& f)
+{
+  switch (f.kind)
+  {
+    case FieldKind::kReal:
+      return std::string("a number [") + f.unit + "]";
+    case FieldKind::kInteger:
+      return std::string("an integer [") + f.unit + "]";
+    case FieldKind::kFlag:
+      return "True or False";
+    case FieldKind::kChoice:
+      return "a name (str)";
+    case FieldKind::kCurve:
+      break;
+  }
+  return "'d:t, ...' text or (depth, threshold) pairs [m]";
+}
+
+void setFieldValue(Config& c, const ConfigField& f, const py::handle& v);
+
+/** setFieldValue, with a type mismatch named: "Config.x = 'abc' (str): expected a number [m]". */
+void setField(Config& c, const ConfigField& f, const py::handle& v)
+{
+  try
+  {
+    setFieldValue(c, f, v);
+  }
+  catch (const py::cast_error&)
+  {
+    throw py::type_error(std::string("Config.") + f.name + " = " + std::string(py::repr(v)) + " (" +
+                         std::string(py::str(v.get_type().attr("__name__"))) + "): expected " + expectedOf(f));
+  }
 }
 
 void setFieldValue(Config& c, const ConfigField& f, const py::handle& v)
@@ -437,7 +483,7 @@ PYBIND11_MODULE(_core, m)
              }
              for (const auto& item : kw)
                if (py::cast<std::string>(item.first) != "sensor_model")
-                 setFieldValue(c, fieldNamed(py::cast<std::string>(item.first)), item.second);
+                 setField(c, fieldNamed(py::cast<std::string>(item.first)), item.second);
              c.validate();
              return c;
            }),
@@ -467,7 +513,7 @@ PYBIND11_MODULE(_core, m)
       const ConfigField* row = &f;
       config.def_property(
           f.name, [row](const Config& c) { return fieldValue(c, *row); },
-          [row](Config& c, const py::object& v) { setFieldValue(c, *row, v); });
+          [row](Config& c, const py::object& v) { setField(c, *row, v); });
       config.attr("__dict__")[f.name].attr("__doc__") = fieldDoc(f);
     }
     m.attr("CONFIG_FIELDS") = fieldTable();

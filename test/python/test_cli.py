@@ -68,6 +68,9 @@ def test_top_level_help_is_plain_text(capsys: pytest.CaptureFixture[str]) -> Non
         ("=1.1", "expected NAME=VALUE with NAME one of "),
         ("sensor_height=-1", "--param sensor_height=-1: "),
         ("projection=sideways", "--param projection=sideways: "),
+        ("sensor_height=abc", "Config.sensor_height = 'abc' (str): expected a number [m]"),
+        ("open_kernel_size=2.5", "Config.open_kernel_size = 2.5 (float): expected an integer [px]"),
+        ("threshold_curve=5", "threshold_curve = 5 (int): expected 'd:t, ...' text or (depth, threshold) pairs"),
     ],
 )
 def test_bad_param_is_one_line_naming_the_valid_fields(
