@@ -46,32 +46,28 @@ def frames(draw: st.DrawFn) -> tuple[np.ndarray, kp.Camera]:
     return arr, cam
 
 
+def field_values(f: dict[str, object]) -> st.SearchStrategy[object]:
+    """Values for one row of the core's table (kp.CONFIG_FIELDS): valid ones, the edges, and some it must refuse."""
+    lo, hi = float(f["min"]), float(f["max"])  # type: ignore[arg-type]
+    kind = f["kind"]
+    if kind == "real":
+        return anyfloat
+    if kind == "integer":
+        return st.integers(int(lo) - 3, int(min(hi, lo + 2000)))
+    if kind == "flag":
+        return st.booleans()
+    if kind == "choice":
+        return st.sampled_from([*f["choices"], "Exact", ""])  # type: ignore[misc]
+    return st.lists(st.tuples(anyfloat, anyfloat), max_size=5)
+
+
 @st.composite
 def configs(draw: st.DrawFn) -> dict[str, object]:
+    """Any subset of the Config fields, each drawn as its kind says (a new field is fuzzed without a change here)."""
     cfg: dict[str, object] = {}
-    if draw(st.booleans()):
-        cfg["sensor_height"] = draw(anyfloat)
-    if draw(st.booleans()):
-        cfg["ceiling_height"] = draw(anyfloat)
-    if draw(st.booleans()):
-        cfg["sensor_pitch"] = draw(anyfloat)
-    if draw(st.booleans()):
-        cfg["open_kernel_size"] = draw(st.integers(-3, 9))
-    if draw(st.booleans()):
-        cfg["open_kernel_shape"] = draw(st.sampled_from(["rect", "cross", "ellipse", "disc"]))
-    if draw(st.booleans()):
-        cfg["geometry"] = draw(st.sampled_from(["exact", "thesis", "Exact"]))
-    if draw(st.booleans()):
-        cfg["projection"] = draw(st.sampled_from(["horizontal", "column", ""]))
-    if draw(st.booleans()):
-        n = draw(st.integers(0, 5))
-        cfg["threshold_curve"] = [(draw(anyfloat), draw(anyfloat)) for _ in range(n)]
-    if draw(st.booleans()):
-        cfg["scan_beams"] = draw(st.integers(-2, 2000))
-    if draw(st.booleans()):
-        cfg["range_min"], cfg["range_max"] = draw(anyfloat), draw(anyfloat)
-    if draw(st.booleans()):
-        cfg["max_depth"] = draw(anyfloat)
+    for f in kp.CONFIG_FIELDS:
+        if draw(st.booleans()):
+            cfg[str(f["name"])] = draw(field_values(f))
     return cfg
 
 
