@@ -201,22 +201,28 @@ REAL_FRAMES = [
 # Frame 4: the fitted pose lies 0.06 deg / 0.11 deg from calibrate's (its floor beyond 4 m, where calibrate still
 # fits and the refinement does not, bends away from the plane nearer): 163 floor pixels 4-5.5 m away at the margin
 # of t(d) are kept, 11 of 640 beams (docs/floor_refinement.md, "What it cannot do").
+FRAME_4 = ("slambook2/ch5/rgbd/depth/4.pgm", 1000.0, (518.0, 519.0, 325.5, 253.5))
 KNOWN = pytest.param(
-    "slambook2/ch5/rgbd/depth/4.pgm",
-    1000.0,
-    (518.0, 519.0, 325.5, 253.5),
-    id="4.pgm",
+    *FRAME_4,
+    None,
+    id="4.pgm-default-curve",
     marks=pytest.mark.xfail(strict=True, reason="far floor off the near plane: 1.7 % phantom beams"),
 )
 
 
 @pytest.mark.parametrize(
-    ("name", "per_metre", "k"), [pytest.param(*f, id=f[0].split("/")[-1]) for f in REAL_FRAMES] + [KNOWN]
+    ("name", "per_metre", "k", "model"),
+    [pytest.param(*f, None, id=f[0].split("/")[-1]) for f in REAL_FRAMES]
+    + [KNOWN]
+    + [pytest.param(*f, "kinect_v1", id=f"{f[0].split('/')[-1]}-kinect_v1") for f in [*REAL_FRAMES, FRAME_4]],
 )
-def test_real_frames_told_the_calibrated_pose_off(name: str, per_metre: float, k: tuple[float, ...]) -> None:
+def test_real_frames_told_the_calibrated_pose_off(
+    name: str, per_metre: float, k: tuple[float, ...], model: str | None
+) -> None:
     """Real Kinect v1 frames: the calibrated pose (MSAC on the frame, `calibrate`) is the reference; told it off,
     the refined frame removes the floor the calibrated pose removes, and no beam is nearer than the calibrated
-    pose's scan by more than the sensor's noise allows (5 cm + 4 sigma of a Kinect v1)."""
+    pose's scan by more than the sensor's noise allows (5 cm + 4 sigma of a Kinect v1). With the default (Kinect v2)
+    curve, and with the sensor's own preset (sensor_model: kinect_v1), as a user of these sensors would set it."""
     import cv2
 
     path = REAL / name
@@ -230,7 +236,8 @@ def test_real_frames_told_the_calibrated_pose_off(name: str, per_metre: float, k
     assert fp["found"]
     pose = dict(sensor_height=fp["height"], sensor_pitch=fp["pitch"], sensor_roll=fp["roll"])
     ceiling = max(2.0, fp["height"] + 0.5)
-    ref = kp.Pipeline(cam, kp.Config(refine_floor=False, ceiling_height=ceiling, **pose)).process(depth)
+    preset = {"sensor_model": model} if model else {}
+    ref = kp.Pipeline(cam, kp.Config(refine_floor=False, ceiling_height=ceiling, **pose, **preset)).process(depth)
     floor = ref.labels == 2
     real = np.minimum(ref.ranges, np.minimum(np.roll(ref.ranges, 1), np.roll(ref.ranges, -1))).astype(np.float64)
     margin = 0.05 + 4 * kinect_v1_sigma(np.where(np.isfinite(real), real, 0.0))
@@ -240,6 +247,7 @@ def test_real_frames_told_the_calibrated_pose_off(name: str, per_metre: float, k
             sensor_pitch=fp["pitch"] + dp * DEG,
             sensor_roll=fp["roll"] + dr * DEG,
             ceiling_height=ceiling,
+            **preset,
         )
         res = kp.Pipeline(cam, cfg).process(depth)
         assert res.floor_fit.accepted, (dh, dp, dr, res.floor_fit)
