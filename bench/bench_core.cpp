@@ -63,6 +63,7 @@ int main(int argc, char** argv)
 {
   int frames = 300, kernel = 3;
   double surface_band = 0.0;
+  bool refine_floor = true;
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
   bool markdown = false;
@@ -100,6 +101,8 @@ int main(int argc, char** argv)
     }
     else if (a == "--surface-band" && i + 1 < argc)
       surface_band = std::atof(argv[++i]);
+    else if (a == "--no-refine-floor")
+      refine_floor = false;
     else if (a == "--markdown")
       markdown = true;
     else if (a == "--threads" && i + 1 < argc)
@@ -121,7 +124,7 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--surface-band B] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--surface-band B] [--no-refine-floor] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -158,6 +161,7 @@ int main(int argc, char** argv)
       cfg.projection = projectionFromString(projection);
       cfg.num_threads = threads;
       cfg.surface_band = surface_band;
+      cfg.refine_floor = refine_floor;
       Pipeline pipe(cam, cfg);
       FrameResult res;
       // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).

@@ -44,7 +44,7 @@ constexpr double kMaxSpread = 0.5;
 constexpr double kMaxStdOfBound = 0.5;
 // A fit that moves the floor by less than this fraction of t(d) wherever it is seen is below the noise: the frame
 // keeps the (corrected) prior, so that a well-known pose is not moved by noise and clutter (about 1 mm and 0.02 deg
-// on the lab scene), and nothing is learned from it.
+// on the lab scene), and nothing is learned from it. A roll term alone below it is left out of the fit (decide()).
 constexpr double kMinShift = 0.1;
 constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
 constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
@@ -176,7 +176,8 @@ struct FloorFit::Plane
   double std_a = 0.0, std_b = 0.0, std_c = 0.0;
   int support = 0;
   double spread = 0.0;
-  double shift = 0.0;  // the largest move of the floor over the support, in units of t(d)
+  double shift = 0.0;       // the largest move of the floor over the support, in units of t(d)
+  double roll_shift = 0.0;  // the same of the roll term (c y) alone
 };
 
 template <typename T>
@@ -339,6 +340,7 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
       ++p.support;
       ss += r * r;
       p.shift = std::max(p.shift, std::fabs(p.a + p.b * x_[i] + p.c * y_[i]) / band_[i]);
+      p.roll_shift = std::max(p.roll_shift, std::fabs(p.c * y_[i]) / band_[i]);
     }
   }
   p.spread = p.support ? std::sqrt(ss / p.support) : 0.0;
@@ -354,7 +356,10 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
 void FloorFit::decide(const Plane& p, const Config& cfg, const SensorPose& prior, FloorFitResult& out) const
 {
   const SensorPose corrected = plus(prior, learned_);
-  const SensorPose fitted = poseFromFloorPlane(corrected, p.a - corrected.height, p.b, p.c);
+  // A roll term below the noise is left out, as a whole fit below it is (kMinShift): the floor cannot tell it
+  // from no roll correction, and a roll of exactly zero keeps the frame on the roll-free per-row paths.
+  const double c = p.roll_shift < kMinShift ? 0.0 : p.c;
+  const SensorPose fitted = poseFromFloorPlane(corrected, p.a - corrected.height, p.b, c);
   out.fit = minus(fitted, prior);
   out.support = p.support;
   out.shift = p.shift;

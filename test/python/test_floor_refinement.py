@@ -60,6 +60,24 @@ def test_pose_errors_meet_the_goals(encoding: str, tilt_deg: int, base_pitch_deg
         assert floor >= 0.995 and kept >= 0.99, what
 
 
+@pytest.mark.parametrize("encoding", ["8UC1", "16UC1"])
+def test_a_roll_below_the_noise_is_left_out(encoding: str) -> None:
+    """Told a wrong height and pitch but the right roll (0), the fit corrects height and pitch and leaves the roll
+    at exactly 0 (a roll term below a tenth of t(d) is noise), so the frame keeps the roll-free per-row paths; a
+    real roll error of 1 deg is still corrected."""
+    cam = kp.kinect_v2_camera()
+    frame = render_frame(cam, lab_scene(), 1.1, 0.26, 0.0, encoding, seed=3, tof=True)
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=1.13, sensor_pitch=0.26 + 0.5 * DEG))
+    for _ in range(3):
+        res = pipe.process(frame.depth)
+        assert res.floor_fit.accepted and abs(res.pose.height - 1.1) < 0.005, res.floor_fit
+        assert res.pose.roll == 0.0 and res.floor_fit.correction.roll == 0.0, res.floor_fit
+        assert pipe.learned_correction.roll == 0.0
+    rolled = render_frame(cam, lab_scene(), 1.1, 0.26, 1.0 * DEG, encoding, seed=3, tof=True)
+    res = kp.Pipeline(cam, kp.Config(sensor_height=1.1, sensor_pitch=0.26)).process(rolled.depth)
+    assert res.floor_fit.accepted and abs(res.pose.roll - 1.0 * DEG) < 0.1 * DEG, res.floor_fit
+
+
 def test_without_the_refinement_the_same_errors_fail() -> None:
     """The goals have teeth: refine_floor=False misses them at these errors, and is the pose it was told."""
     cam = kp.kinect_v2_camera()
