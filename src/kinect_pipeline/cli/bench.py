@@ -19,6 +19,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threads", help="comma-separated thread counts, e.g. 1,2,4,8 [threads] (default: 1,2)")
     p.add_argument("--encodings", help="comma-separated subset of 8UC1,16UC1,32FC1 (default: all three)")
     p.add_argument("--surface-band", type=float, default=0.0, help="the pipeline's surface_band [-]")
+    p.add_argument(
+        "--no-refine-floor",
+        action="store_true",
+        help="the frames without the floor refinement (refine_floor false), to see what it costs (default: on)",
+    )
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (default: plain text)")
 
 
@@ -43,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
         cmd += ["--encodings", args.encodings]
     if args.surface_band:
         cmd += ["--surface-band", str(args.surface_band)]
+    if args.no_refine_floor:
+        cmd.append("--no-refine-floor")
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)
