@@ -42,6 +42,8 @@ struct ConfigField
   int Config::*integer = nullptr;     ///< kInteger
   bool Config::*flag = nullptr;       ///< kFlag
   std::vector<std::string> choices;   ///< kChoice: the names it accepts
+  std::string (*choice_of)(const Config&) = nullptr;          ///< kChoice: the value's name
+  void (*set_choice)(Config&, const std::string&) = nullptr;  ///< kChoice: the value from its name (throws on others)
 
   /** The value as a number (kReal, kInteger, kFlag). @throw std::logic_error for kChoice / kCurve. */
   double number(const Config& c) const;

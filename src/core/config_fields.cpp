@@ -47,10 +47,13 @@ ConfigField flag(const char* name, bool Config::*m, const char* doc)
   return f;
 }
 
-ConfigField choice(const char* name, std::vector<std::string> names, const char* doc)
+ConfigField choice(const char* name, std::vector<std::string> names, const char* doc,
+                   std::string (*of)(const Config&), void (*set)(Config&, const std::string&))
 {
   ConfigField f = row(name, FieldKind::kChoice, 0, 0, "-", doc);
   f.choices = std::move(names);
+  f.choice_of = of;
+  f.set_choice = set;
   return f;
 }
 
@@ -63,10 +66,16 @@ std::vector<ConfigField> makeTable()
       real("sensor_roll", &C::sensor_roll, -kPi / 2, kPi / 2, "rad", "Static roll of the sensor on the base, + right side down"),
       real("ceiling_height", &C::ceiling_height, 0.02, 100.0, "m", "Height of the ceiling plane above the floor; above sensor_height"),
       real("max_depth", &C::max_depth, 0.1, 1000.0, "m", "Depth of 8-bit value 255 (8-bit normalised input)"),
-      choice("geometry", {"exact", "thesis"}, "Plane prediction: 'exact' (pinhole ray / plane) or 'thesis' (eq 4.10-4.18)"),
-      choice("projection", {"horizontal", "column"}, "Pixel to beam: 'horizontal' (gravity-aligned range) or 'column' (thesis)"),
+      choice("geometry", {"exact", "thesis"}, "Plane prediction: 'exact' (pinhole ray / plane) or 'thesis' (eq 4.10-4.18)",
+             [](const C& c) { return toString(c.geometry); },
+             [](C& c, const std::string& v) { c.geometry = geometryFromString(v); }),
+      choice("projection", {"horizontal", "column"}, "Pixel to beam: 'horizontal' (gravity-aligned range) or 'column' (thesis)",
+             [](const C& c) { return toString(c.projection); },
+             [](C& c, const std::string& v) { c.projection = projectionFromString(v); }),
       integer("open_kernel_size", &C::open_kernel_size, 0, 31, "px", "Opening kernel size: 0 or 1 = off, else odd"),
-      choice("open_kernel_shape", {"rect", "cross", "ellipse"}, "Opening kernel shape"),
+      choice("open_kernel_shape", {"rect", "cross", "ellipse"}, "Opening kernel shape",
+             [](const C& c) { return toString(c.open_kernel_shape); },
+             [](C& c, const std::string& v) { c.open_kernel_shape = kernelShapeFromString(v); }),
       row("threshold_curve", FieldKind::kCurve, 0, 0, "m",
           "Threshold t(d) as 'depth:threshold, ...' control points; depths increasing, thresholds non-decreasing"),
       real("range_min", &C::range_min, 0.0, 1000.0, "m", "Shorter beams are reported as -Inf (REP 117)"),
@@ -165,12 +174,10 @@ void ConfigField::setNumber(Config& c, double v) const
 
 std::string ConfigField::text(const Config& c) const
 {
-  const std::string n = name;
   if (kind == FieldKind::kCurve)
     return formatThresholdCurve(c.threshold_curve);
   if (kind == FieldKind::kChoice)
-    return n == "geometry" ? toString(c.geometry)
-                           : (n == "projection" ? toString(c.projection) : toString(c.open_kernel_shape));
+    return choice_of(c);
   if (kind == FieldKind::kFlag)
     return c.*flag ? "true" : "false";
   return full(number(c));
@@ -178,15 +185,10 @@ std::string ConfigField::text(const Config& c) const
 
 void ConfigField::setText(Config& c, const std::string& v) const
 {
-  const std::string n = name;
   if (kind == FieldKind::kCurve)
     c.threshold_curve = parseThresholdCurve(v);
-  else if (n == "geometry")
-    c.geometry = geometryFromString(v);
-  else if (n == "projection")
-    c.projection = projectionFromString(v);
-  else if (n == "open_kernel_shape")
-    c.open_kernel_shape = kernelShapeFromString(v);
+  else if (kind == FieldKind::kChoice)
+    set_choice(c, v);
   else if (kind == FieldKind::kFlag && (v == "true" || v == "false"))
     c.*flag = v == "true";
   else
@@ -202,7 +204,7 @@ void ConfigField::setText(Config& c, const std::string& v) const
       used = 0;
     }
     if (used == 0 || used != v.size())
-      throw std::invalid_argument("Config." + n + " = '" + v + "': expected a number [" + unit + "]");
+      throw std::invalid_argument(std::string("Config.") + name + " = '" + v + "': expected a number [" + unit + "]");
     setNumber(c, x);
   }
 }

@@ -123,6 +123,12 @@ TEST(ConfigFields, EveryNumberOutsideItsRangeIsNamedAndEveryTextRoundTrips)
     Config back;
     f.setText(back, f.text(Config{}));
     EXPECT_EQ(f.text(back), f.text(Config{})) << f.name;
+    for (const std::string& name : f.choices)  // the table's names are the ones the parsers take
+    {
+      f.setText(back, name);
+      EXPECT_EQ(f.text(back), name) << f.name;
+    }
+    EXPECT_EQ(f.kind == FieldKind::kChoice, !f.choices.empty()) << f.name;
   }
   expectInvalid([] { configField("sensor_hieght"); }, {"sensor_hieght", "sensor_height"});
   Config c;
