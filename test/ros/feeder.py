@@ -21,6 +21,7 @@ import numpy as np
 import rospy
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
+from frames import optical_quaternion
 from geometry_msgs.msg import Quaternion, TransformStamped
 from rosgraph_msgs.msg import Clock, Log
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, Imu, LaserScan
@@ -43,20 +44,6 @@ SCENES = {
 def triple(text: str) -> tuple[float, float, float]:
     h, p, r = (float(x) for x in text.split(","))
     return h, p, r
-
-
-def optical_quaternion(pitch: float, roll: float) -> Quaternion:
-    """The optical frame's orientation in base_footprint for a sensor pitched down by ``pitch``, rolled by ``roll``."""
-    cp, sp, cr, sr = math.cos(pitch), math.sin(pitch), math.cos(roll), math.sin(roll)
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    body_from_optical = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])
-    r = ry @ rx @ body_from_optical
-    w = math.sqrt(max(0.0, 1.0 + r[0, 0] + r[1, 1] + r[2, 2])) / 2
-    x = math.copysign(math.sqrt(max(0.0, 1.0 + r[0, 0] - r[1, 1] - r[2, 2])) / 2, r[2, 1] - r[1, 2])
-    y = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] + r[1, 1] - r[2, 2])) / 2, r[0, 2] - r[2, 0])
-    z = math.copysign(math.sqrt(max(0.0, 1.0 - r[0, 0] - r[1, 1] + r[2, 2])) / 2, r[1, 0] - r[0, 1])
-    return Quaternion(x=x, y=y, z=z, w=w)
 
 
 class Recorder:

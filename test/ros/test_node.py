@@ -19,6 +19,7 @@ import rostest
 import tf2_ros
 from diagnostic_msgs.msg import DiagnosticArray
 from dynamic_reconfigure.client import Client
+from frames import optical_quaternion, quaternion_from_matrix
 from geometry_msgs.msg import Quaternion, TransformStamped
 from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
@@ -30,31 +31,6 @@ NODE = "/kinect2/kinect_pipeline"
 HEIGHT, TILT = 1.1, 0.26
 CAM = kp.Camera(512, 424, 365.0, 365.0, 255.5, 211.5)
 DEADLINE = 20.0
-
-
-def quaternion_from_matrix(m: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) of a rotation matrix (upper-left 3x3 of m)."""
-    r = m[:3, :3]
-    w = math.sqrt(max(0.0, 1.0 + r[0, 0] + r[1, 1] + r[2, 2])) / 2
-    x = math.sqrt(max(0.0, 1.0 + r[0, 0] - r[1, 1] - r[2, 2])) / 2
-    y = math.sqrt(max(0.0, 1.0 - r[0, 0] + r[1, 1] - r[2, 2])) / 2
-    z = math.sqrt(max(0.0, 1.0 - r[0, 0] - r[1, 1] + r[2, 2])) / 2
-    x = math.copysign(x, r[2, 1] - r[1, 2])
-    y = math.copysign(y, r[0, 2] - r[2, 0])
-    z = math.copysign(z, r[1, 0] - r[0, 1])
-    return x, y, z, w
-
-
-def optical_quaternion(pitch: float, roll: float = 0.0) -> Quaternion:
-    """Orientation of the optical frame in base_footprint for a sensor pitched down by ``pitch``."""
-    cp, sp, cr, sr = math.cos(pitch), math.sin(pitch), math.cos(roll), math.sin(roll)
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    body_from_optical = np.array([[0, 0, 1], [-1, 0, 0], [0, -1, 0]])  # optical axes in the body frame
-    m = np.eye(4)
-    m[:3, :3] = ry @ rx @ body_from_optical
-    q = quaternion_from_matrix(m)
-    return Quaternion(x=q[0], y=q[1], z=q[2], w=q[3])
 
 
 def depth_msg(depth: np.ndarray, stamp: rospy.Time, encoding: str = "16UC1") -> Image:
