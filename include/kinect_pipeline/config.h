@@ -98,6 +98,10 @@ struct Config
   bool cliff_scan = true;      ///< fill FrameResult::cliff: nearest below-floor pixel per beam
   bool cliff_in_scan = false;  ///< also put below-floor beams into the main scan as obstacles
   int cliff_min_pixels = 3;    ///< below-floor pixels a beam needs before it reports a cliff [px], >= 1
+  /// Smallest drop a cliff beam reports [m]: a below-floor pixel counts only at least this far below the floor and
+  /// within the depth where such a drop is told from t(d); a cliff no nearer than its beam's obstacle is dropped.
+  /// 0 = every below-floor pixel counts (docs/negative_obstacles.md, "Evidence").
+  double cliff_min_drop = 0.05;
 
   int confidence_window = 5;         ///< N: ranges in each beam's rolling mean (incl. the current one)
   double confidence_distance = 0.3;  ///< d_threshold of eq 4.23 [m]

@@ -49,10 +49,14 @@ enum class FloorFitStatus : std::uint8_t
   kSpreadTooLarge,   ///< the residuals are wider than the depth noise allows for a floor
   kOutOfBounds,      ///< the correction exceeds floor_max_height/pitch/roll_error
   kIllConditioned,   ///< the floor in view is too small to fix the pitch or roll (e.g. one narrow strip)
+  kNotBetter,        ///< the fitted floor explains the frame's candidates worse than the prior's does
 };
-constexpr int kNumFloorFitStatus = 6;
+constexpr int kNumFloorFitStatus = 7;
 
-/** @return "off", "accepted", "too few pixels", "spread too large", "out of bounds" or "ill-conditioned". */
+/**
+ * @return "off", "accepted", "too few pixels", "spread too large", "out of bounds", "ill-conditioned" or "not better
+ *         than the prior".
+ */
 std::string toString(FloorFitStatus s);
 
 /** The floor fit of one frame (FrameResult::floor_fit). */
@@ -70,6 +74,7 @@ struct FloorFitResult
   /// the frame keeps the prior (plus the learned correction)
   double shift = 0.0;
   PoseCorrection fit;      ///< the fitted pose minus the prior (also when declined)
+  PoseCorrection std;      ///< the standard deviations of the fitted floor's terms (height [m], slopes [rad])
   PoseCorrection applied;  ///< the pose the frame was processed at minus the prior
   PoseCorrection learned;  ///< the slowly learned correction after this frame (applied to the next prior)
 };
@@ -103,6 +108,9 @@ public:
   {
     PoseCorrection learned;
     double last_stamp = std::numeric_limits<double>::quiet_NaN();  ///< [s]; NaN: no stamped frame yet
+    /// the learned correction's weight per term [1/m^2, 1/rad^2]; NaN: none yet (the prior's, 1/bound^2)
+    PoseCorrection weight{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+                          std::numeric_limits<double>::quiet_NaN()};
   };
   /** @return the state after the last frame (to continue elsewhere, e.g. a resumed replay). */
   State state() const;
@@ -121,6 +129,12 @@ public:
 
 private:
   struct Plane;
+  struct Ray  // a row's term of the level-frame ray per metre of depth (forward, left, up)
+  {
+    float x, y, z;
+  };
+  /** Whether sampled pixel (u, row of ray) at depth z lies on a vertical surface, by the depth z2 kGradRows below. */
+  bool isVertical(int u, float z, const Ray& ray, const Ray& ray2, float z2, float t) const;
   template <typename T>
   void sample(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
               const SensorPose& prior);
@@ -128,12 +142,15 @@ private:
   float nearestFloor() const;
   void decide(const Plane& plane, const Config& config, const SensorPose& prior, FloorFitResult& out) const;
   void learn(const FloorFitResult& out, const Config& config, double stamp);
+  static PoseCorrection priorWeight(const Config& config);
 
   int col_step_ = 1;
   int count_ = 0;  // sampled pixels in the band; the arrays are padded with weightless points to whole vectors
   std::vector<float> x_, y_, e_, band_, inv_sigma_, range2_;
   std::vector<float> col_x_, col_y_, col_z_;  // the ray's level-frame terms of each sampled column
   PoseCorrection learned_;
+  PoseCorrection weight_;  // the learned correction's weight per term (learn())
+  bool has_weight_ = false;
   double last_stamp_ = 0.0;
   bool has_stamp_ = false;
 };

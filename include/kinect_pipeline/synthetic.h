@@ -90,6 +90,28 @@ void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0 = 0.0015, 
 void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range = 8.0, double flying = 0.5,
                      double edge_jump = 0.3);
 
+/** An active stereo camera's artefacts (RealSense D4xx-like), for addStereoArtefacts(). */
+struct StereoArtefacts
+{
+  double focal_baseline = 617.0 * 0.050;  ///< fx [px] times the stereo baseline [m]: disparity = this / depth
+  double subpixel = 0.08;                 ///< disparity noise, one sigma [px]
+  double bias = 0.12;                     ///< disparity offset [px]: a depth bias of depth^2 * bias / focal_baseline
+  double speckle = 0.002;                 ///< fraction of pixels replaced by a wrong match (a 2x2 blob each)
+  int smear_rows = 6;                     ///< the matching window's reach above a pixel [rows]
+  double smear_jump = 0.15;               ///< a farther surface within reach by more than this [m] may win the match
+  double smear = 0.5;                     ///< probability that it does (flying pixels; the floor before a wall)
+  double max_range = 10.0;                ///< no depth beyond [m]
+  double dropout = 0.01;                  ///< fraction of pixels without depth
+};
+/**
+ * @brief Active-stereo artefacts in place, seeded: Gaussian noise of the disparity (so the depth noise grows with
+ *        the square of the depth), a disparity offset (a bias growing with the square of the depth), wrong matches
+ *        in small blobs, dropouts, and the matching window's smear: a pixel whose window reaches a surface farther
+ *        by more than smear_jump (the floor just before a wall's base, an object's silhouette) takes that surface's
+ *        depth with probability smear. Unknown pixels (+Inf) stay unknown.
+ * @param depth CV_32F metres
+ */
+void addStereoArtefacts(cv::Mat& depth, std::uint64_t seed, const StereoArtefacts& a = StereoArtefacts());
 /**
  * @brief Converts float metres (+Inf/NaN unknown) into an encoding's image: 8-bit normalised with
  *        @p max_depth (rounded, saturating at 255; unknown -> 0), 16UC1 mm (rounded; unknown -> 0), or a copy.

@@ -87,6 +87,8 @@ std::vector<ConfigField> makeTable()
       flag("cliff_scan", &C::cliff_scan, "Fill the cliff scan: the nearest below-floor pixel (hole, stair down) per beam"),
       flag("cliff_in_scan", &C::cliff_in_scan, "Also put below-floor beams into the scan as obstacles"),
       integer("cliff_min_pixels", &C::cliff_min_pixels, 1, 100000, "px", "Below-floor pixels a beam needs before it reports a cliff"),
+      real("cliff_min_drop", &C::cliff_min_drop, 0.0, 10.0, "m",
+           "Smallest drop a cliff beam reports: below-floor pixels this far below the floor, where t(d) resolves it; 0 = all"),
       integer("confidence_window", &C::confidence_window, 1, 1000, "frames", "Ranges in each beam's rolling mean, this one included"),
       real("confidence_distance", &C::confidence_distance, 0.001, 100.0, "m",
            "d_threshold of eq 4.23: distance from the mean at which intensity is 0"),

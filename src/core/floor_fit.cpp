@@ -46,6 +46,18 @@ constexpr double kMaxStdOfBound = 0.5;
 // keeps the (corrected) prior, so that a well-known pose is not moved by noise and clutter (about 1 mm and 0.02 deg
 // on the lab scene), and nothing is learned from it. A roll term alone below it is left out of the fit (decide()).
 constexpr double kMinShift = 0.1;
+// Beyond floor_max_*_error (the soft bounds) a fit is still accepted up to kHardBound times them when the frame
+// supports it clearly: the image pixels on it at least kBeyondPixels times floor_min_pixels, and the prior's cost
+// (Plane::cost) at least kBeyondGain times the fit's. A platform that rocks 2-3 deg, a mount that moved. Tables and
+// beds (>= 0.45 m) lie far beyond any hard bound of the height.
+constexpr double kHardBound = 2.0;
+constexpr double kBeyondPixels = 2.0;
+constexpr double kBeyondGain = 1.5;
+// A sampled pixel is checked against the pixel kGradRows rows below it in the image: on the floor, the depth there
+// is the floor's (the same plane, another ray); on a vertical surface (a leg, a foot, a table leg, a wall's base),
+// about the same horizontal range. Where the two predictions differ by more than t(d) and the vertical one is the
+// nearer, the pixel is not floor.
+constexpr int kGradRows = 4;
 constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
 constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
 
@@ -69,6 +81,14 @@ bool poseIsValid(const SensorPose& p, const Config& c)
 {
   return std::isfinite(p.height) && p.height > 0.0 && p.height < c.ceiling_height && std::fabs(p.pitch) <= kHalfPi &&
          std::fabs(p.roll) <= kHalfPi;
+}
+
+/** Whether each term of c lies within factor times its floor_max_*_error. */
+bool withinBounds(const PoseCorrection& c, const Config& cfg, double factor)
+{
+  return std::fabs(c.height) <= factor * cfg.floor_max_height_error &&
+         std::fabs(c.pitch) <= factor * cfg.floor_max_pitch_error &&
+         std::fabs(c.roll) <= factor * cfg.floor_max_roll_error;
 }
 
 SensorPose plus(const SensorPose& p, const PoseCorrection& c)
@@ -151,6 +171,8 @@ std::string toString(FloorFitStatus s)
       return "out of bounds";
     case FloorFitStatus::kIllConditioned:
       return "ill-conditioned";
+    case FloorFitStatus::kNotBetter:
+      return "not better than the prior";
   }
   return "unknown";
 }
@@ -175,10 +197,27 @@ struct FloorFit::Plane
   double a = 0.0, b = 0.0, c = 0.0;  // a: height of the floor above the prior's
   double std_a = 0.0, std_b = 0.0, std_c = 0.0;
   int support = 0;
+  // How badly the fitted and the (corrected) prior's floor explain the candidates: the sum of their residuals'
+  // squares in units of t(d), each at most 1 (a pixel off the floor counts once, however far).
+  double cost = 0.0, prior_cost = 0.0;
   double spread = 0.0;
   double shift = 0.0;       // the largest move of the floor over the support, in units of t(d)
   double roll_shift = 0.0;  // the same of the roll term (c y) alone
 };
+
+bool FloorFit::isVertical(int u, float z, const Ray& ray, const Ray& ray2, float z2, float t) const
+{
+  if (!(z2 > 0.0f))
+    return false;  // no depth below: no evidence either way
+  const float rise = col_z_[u] + ray.z, rise2 = col_z_[u] + ray2.z;
+  const float hor = std::hypot(col_x_[u] + ray.x, col_y_[u] + ray.y);
+  const float hor2 = std::hypot(col_x_[u] + ray2.x, col_y_[u] + ray2.y);
+  // The depth below if the pixel is floor (the plane at its height: h + z R = h + z2 R2), and if it is a vertical
+  // surface (the same horizontal range).
+  const float on_floor = rise2 < 0.0f ? z * rise / rise2 : std::numeric_limits<float>::infinity();
+  const float on_wall = z * hor / hor2;
+  return std::fabs(on_floor - on_wall) > t && std::fabs(z2 - on_wall) < std::fabs(z2 - on_floor);
+}
 
 template <typename T>
 void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg, const ThresholdLut& lut,
@@ -217,6 +256,11 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
     const float rx = static_cast<float>(m[1] * yn + m[2]), ry = static_cast<float>(m[4] * yn + m[5]),
                 rz = static_cast<float>(m[7] * yn + m[8]);
     const T* row = depth.ptr<T>(r);
+    const int r2 = r + kGradRows;  // the row the column's depth gradient is read against
+    const T* below = r2 < cam.height ? depth.ptr<T>(r2) : nullptr;
+    const double yn2 = (r2 - cam.cy) / cam.fy;
+    const Ray ray2{static_cast<float>(m[1] * yn2 + m[2]), static_cast<float>(m[4] * yn2 + m[5]),
+                   static_cast<float>(m[7] * yn2 + m[8])};
     for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
     {
       const T v = row[u];
@@ -224,8 +268,10 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
       if (!(z > 0.0f && z <= kMaxFitDepth && rise < 0.0f))
         continue;  // unknown, too far, or a ray that never meets the floor
       const float x = z * (col_x_[u] + rx), y = z * (col_y_[u] + ry), e = h + z * rise;
-      const float band = -rise * thresholdOf(lut, v, z);
+      const float t = thresholdOf(lut, v, z), band = -rise * t;
       if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
+        continue;
+      if (below && isVertical(u, z, {rx, ry, rz}, ray2, metresOf(below[u], scale), t))
         continue;
       x_[n] = x;
       y_[n] = y;
@@ -334,7 +380,9 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
   double ss = 0.0;
   for (int i = 0; i < count_; ++i)
   {
-    const double r = (e_[i] - (p.a + p.b * x_[i] + p.c * y_[i])) / band_[i];
+    const double r0 = e_[i] / band_[i], r = (e_[i] - (p.a + p.b * x_[i] + p.c * y_[i])) / band_[i];
+    p.prior_cost += std::min(1.0, r0 * r0);
+    p.cost += std::min(1.0, r * r);
     if (std::fabs(r) <= 1.0)
     {
       ++p.support;
@@ -365,6 +413,7 @@ void FloorFit::decide(const Plane& p, const Config& cfg, const SensorPose& prior
   out.shift = p.shift;
   out.pixels = p.support * kRowStep * col_step_;
   out.spread = p.spread;
+  out.std = {p.std_a, p.std_b, p.std_c};
   if (out.pixels < cfg.floor_min_pixels)
     out.status = FloorFitStatus::kTooFewPixels;
   else if (p.spread > kMaxSpread)
@@ -373,13 +422,21 @@ void FloorFit::decide(const Plane& p, const Config& cfg, const SensorPose& prior
              p.std_b <= kMaxStdOfBound * cfg.floor_max_pitch_error &&
              p.std_c <= kMaxStdOfBound * cfg.floor_max_roll_error))
     out.status = FloorFitStatus::kIllConditioned;
-  else if (!(std::fabs(out.fit.height) <= cfg.floor_max_height_error &&
-             std::fabs(out.fit.pitch) <= cfg.floor_max_pitch_error &&
-             std::fabs(out.fit.roll) <= cfg.floor_max_roll_error) ||
-           !poseIsValid(fitted, cfg))
+  else if (p.shift >= kMinShift && p.cost > p.prior_cost)
+    out.status = FloorFitStatus::kNotBetter;
+  else if (!poseIsValid(fitted, cfg) || !withinBounds(out.fit, cfg, kHardBound) ||
+           (!withinBounds(out.fit, cfg, 1.0) &&
+            !(out.pixels >= kBeyondPixels * cfg.floor_min_pixels && p.cost * kBeyondGain <= p.prior_cost)))
     out.status = FloorFitStatus::kOutOfBounds;
   else
     out.status = FloorFitStatus::kAccepted;
+}
+
+PoseCorrection FloorFit::priorWeight(const Config& cfg)
+{
+  return {1.0 / (cfg.floor_max_height_error * cfg.floor_max_height_error),
+          1.0 / (cfg.floor_max_pitch_error * cfg.floor_max_pitch_error),
+          1.0 / (cfg.floor_max_roll_error * cfg.floor_max_roll_error)};
 }
 
 void FloorFit::learn(const FloorFitResult& out, const Config& cfg, double stamp)
@@ -391,13 +448,30 @@ void FloorFit::learn(const FloorFitResult& out, const Config& cfg, double stamp)
     last_stamp_ = stamp;
     has_stamp_ = true;
   }
-  if (!out.accepted() || out.shift < kMinShift || !(cfg.floor_learn_time > 0.0))
+  if (!(cfg.floor_learn_time > 0.0))
     return;
-  // A first-order low-pass of the accepted corrections: what persists over floor_learn_time stays.
-  const double alpha = 1.0 - std::exp(-dt / cfg.floor_learn_time);
-  learned_.height += alpha * (out.fit.height - learned_.height);
-  learned_.pitch += alpha * (out.fit.pitch - learned_.pitch);
-  learned_.roll += alpha * (out.fit.roll - learned_.roll);
+  if (!has_weight_)
+  {
+    weight_ = priorWeight(cfg);
+    has_weight_ = true;
+  }
+  // The learned correction is the mean of the accepted corrections, each weighted by its precision (1 / the
+  // fitted term's variance) and by how recent it is (exp(-age / floor_learn_time)), the prior (bound^2) counting as
+  // one more. A first good fit weighs far more than the prior: the correction holds from the first second on. At a
+  // steady stream of fits of equal precision this is the low-pass learned += (1 - exp(-dt / T)) (fit - learned).
+  const double decay = std::exp(-dt / cfg.floor_learn_time);
+  weight_ = {weight_.height * decay, weight_.pitch * decay, weight_.roll * decay};
+  if (!out.accepted() || out.shift < kMinShift)
+    return;
+  const auto step = [](double& learned, double& weight, double fit, double std) {
+    const double w = std::isfinite(std) && std > 0.0 ? 1.0 / (std * std) : 0.0;
+    weight += w;
+    if (weight > 0.0)
+      learned += w / weight * (fit - learned);
+  };
+  step(learned_.height, weight_.height, out.fit.height, out.std.height);
+  step(learned_.pitch, weight_.pitch, out.fit.pitch, out.std.pitch);
+  step(learned_.roll, weight_.roll, out.fit.roll, out.std.roll);
 }
 
 SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
@@ -434,12 +508,15 @@ SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Co
 
 FloorFit::State FloorFit::state() const
 {
-  return {learned_, has_stamp_ ? last_stamp_ : std::numeric_limits<double>::quiet_NaN()};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  return {learned_, has_stamp_ ? last_stamp_ : nan, has_weight_ ? weight_ : PoseCorrection{nan, nan, nan}};
 }
 
 void FloorFit::restore(const State& s)
 {
   learned_ = s.learned;
+  has_weight_ = std::isfinite(s.weight.height) && std::isfinite(s.weight.pitch) && std::isfinite(s.weight.roll);
+  weight_ = has_weight_ ? s.weight : PoseCorrection{};
   has_stamp_ = std::isfinite(s.last_stamp);
   last_stamp_ = has_stamp_ ? s.last_stamp : 0.0;
 }
@@ -447,6 +524,8 @@ void FloorFit::restore(const State& s)
 void FloorFit::reset()
 {
   learned_ = PoseCorrection{};
+  weight_ = PoseCorrection{};
+  has_weight_ = false;
   has_stamp_ = false;
   last_stamp_ = 0.0;
 }

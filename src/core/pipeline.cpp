@@ -47,6 +47,9 @@ struct RowStages
   const RowBinner& binner;
   bool cliff;   ///< bin the below-floor pixels (cliff_scan or cliff_in_scan)
   float scale;  ///< metres per unit of the encoding
+  const float* col;    ///< PlaneModel::colTerm()
+  const float* row;    ///< PlaneModel::rowTerm()
+  CliffRule cliff_rule;  ///< which of them are cliff evidence
 };
 
 /** What the row loop leaves for stage 3. */
@@ -80,7 +83,7 @@ void labelRow(const cv::Mat& depth, int r, const RowStages<T>& st, const Binning
     // Negative obstacles: the row's below-floor pixels at their opened depth, binned like kept ones.
     const int a = c.below_first >= 0 ? c.below_first : firstLabelled(lab, w, kBelowFloor);
     const int e = c.below_last >= 0 ? c.below_last : lastLabelled(lab, w, kBelowFloor);
-    belowFloorDepth<T>(src, lab, a, e, st.scale, b.z.data());
+    belowFloorDepth<T>(src, lab, a, e, st.scale, st.col, st.row[r], st.cliff_rule, b.z.data());
     st.binner.bin(r, a, e, b, SpanDepths{}, MinCountInto{b.cliff_bins.data() + 1, b.cliff_count.data() + 1});
   }
   spans[2 * r] = w;
@@ -153,7 +156,7 @@ RowLoop labelAndBin(const cv::Mat& depth, const RowStages<T>& st, const Binning&
  */
 template <typename T>
 void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binner, const Config& config,
-               int threads, FrameWork& work, Confidence& confidence, FrameResult& out)
+               const CliffRule& cliff_rule, int threads, FrameWork& work, Confidence& confidence, FrameResult& out)
 {
   auto t1 = Clock::now();
   const ScanProjector& p = binner.projector();
@@ -183,7 +186,7 @@ void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binne
   cl.ranges.clear();
   cl.intensities.clear();
   if (config.cliff_scan || config.cliff_in_scan)
-    mergeCliff(work.team(loop.team), beams, config, work.cliff_count, scan.ranges, cl.ranges);
+    mergeCliff(work.team(loop.team), beams, config, cliff_rule, work.cliff_count, scan.ranges, cl.ranges);
   cl.angle_min = scan.angle_min;
   cl.angle_max = scan.angle_max;
   cl.angle_increment = scan.angle_increment;
@@ -353,7 +356,14 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
                         planes_.rowTerm().data(), &lut_};
   const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, !ref.labels);
   const RowBinner binner(projector_, camera_.width, ref.binning);
-  const RowStages<T> stages{opening, labeller, binner, config_.cliff_scan || config_.cliff_in_scan, scale};
+  const RowStages<T> stages{opening,
+                            labeller,
+                            binner,
+                            config_.cliff_scan || config_.cliff_in_scan,
+                            scale,
+                            planes_.colTerm().data(),
+                            planes_.rowTerm().data(),
+                            CliffRule::at(config_, planes_.floorOffset())};
   Clock::time_point t2 = t1;
   const RowLoop loop =
       projector_.projection() == Projection::kColumn
@@ -364,7 +374,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   out.times.classify_scan = msSince(t2);
 
   // Stage 3: the scan.
-  scanStage<T>(depth, loop, binner, config_, threads, work, confidence_, out);
+  scanStage<T>(depth, loop, binner, config_, stages.cliff_rule, threads, work, confidence_, out);
 }
 
 }  // namespace kinect_pipeline

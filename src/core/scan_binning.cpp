@@ -154,14 +154,21 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
 
 template <typename T>
 KP_CLONES void belowFloorDepth(const T* __restrict src, const std::uint8_t* __restrict lab, int u0, int u1,
-                               float scale, float* __restrict z)
+                               float scale, const float* __restrict col, float row, const CliffRule& rule,
+                               float* __restrict z)
 {
   for (int u = u0; u <= u1; ++u)
-    z[u] = lab[u] == kBelowFloor ? static_cast<float>(src[u]) * scale : kInf;
+  {
+    const float d = static_cast<float>(src[u]) * scale;
+    z[u] = lab[u] == kBelowFloor && rule.evidence(d, col[u] + row) ? d : kInf;
+  }
 }
-template void belowFloorDepth<std::uint8_t>(const std::uint8_t*, const std::uint8_t*, int, int, float, float*);
-template void belowFloorDepth<std::uint16_t>(const std::uint16_t*, const std::uint8_t*, int, int, float, float*);
-template void belowFloorDepth<float>(const float*, const std::uint8_t*, int, int, float, float*);
+template void belowFloorDepth<std::uint8_t>(const std::uint8_t*, const std::uint8_t*, int, int, float, const float*,
+                                            float, const CliffRule&, float*);
+template void belowFloorDepth<std::uint16_t>(const std::uint16_t*, const std::uint8_t*, int, int, float,
+                                             const float*, float, const CliffRule&, float*);
+template void belowFloorDepth<float>(const float*, const std::uint8_t*, int, int, float, const float*, float,
+                                     const CliffRule&, float*);
 
 // 64 labels at a time, then 8 (labelBits), then one.
 KP_CLONES int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)

@@ -10,6 +10,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "cliff_rule.h"
 #include "frame_common.h"
 #include "kinect_pipeline/scan.h"
 
@@ -122,9 +123,13 @@ private:
   bool centres_only_;
 };
 
-/** z[u] = opened depth of the pixel u labelled below floor, +Inf for the others, u in [u0, u1]. */
+/**
+ * z[u] = opened depth of the pixel u labelled below floor where it is cliff evidence (CliffRule::evidence, the ray's
+ * rise col[u] + row), +Inf for the others, u in [u0, u1].
+ */
 template <typename T>
-void belowFloorDepth(const T* src, const std::uint8_t* lab, int u0, int u1, float scale, float* z);
+void belowFloorDepth(const T* src, const std::uint8_t* lab, int u0, int u1, float scale, const float* col, float row,
+                     const CliffRule& rule, float* z);
 /** First and last column with the label l (the row has one). */
 int firstLabelled(const std::uint8_t* lab, int w, std::uint8_t l);
 int lastLabelled(const std::uint8_t* lab, int w, std::uint8_t l);

@@ -24,7 +24,7 @@ void mergeBins(const std::vector<const BinScratch*>& team, int beams, bool squar
       r = std::sqrt(r);
 }
 
-void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Config& config,
+void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Config& config, const CliffRule& rule,
                 std::vector<std::int32_t>& count, std::vector<float>& scan, std::vector<float>& cliff)
 {
   cliff.assign(beams, kInf);
@@ -39,7 +39,7 @@ void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Con
   }
   for (int b = 0; b < beams; ++b)
   {
-    if (count[b] < config.cliff_min_pixels)
+    if (count[b] < config.cliff_min_pixels || rule.hidden(cliff[b], scan[b], config.threshold_curve))
       cliff[b] = kInf;
     if (config.cliff_in_scan)
       scan[b] = std::min(scan[b], cliff[b]);

@@ -17,10 +17,10 @@ void mergeBins(const std::vector<const BinScratch*>& team, int beams, bool squar
 
 /**
  * Negative obstacles (Config::cliff_scan, cliff_in_scan): the nearest below-floor range of each beam over the team's
- * cliff bins where at least cliff_min_pixels fell in it, else +Inf, into cliff (left empty without cliff_scan); with
- * cliff_in_scan also into scan. @param count scratch
+ * cliff bins where at least cliff_min_pixels fell in it and the beam's obstacle does not hide it (CliffRule::hidden),
+ * else +Inf, into cliff (left empty without cliff_scan); with cliff_in_scan also into scan. @param count scratch
  */
-void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Config& config,
+void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Config& config, const CliffRule& rule,
                 std::vector<std::int32_t>& count, std::vector<float>& scan, std::vector<float>& cliff);
 
 /**

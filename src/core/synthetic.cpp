@@ -231,6 +231,62 @@ void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range, doubl
   }
 }
 
+namespace
+{
+/** The farthest depth within smear_rows above (u, v) that lies more than smear_jump beyond z; z if none. */
+float smearSource(const cv::Mat& src, int u, int v, float z, const StereoArtefacts& a)
+{
+  float far = z;
+  for (int k = 1; k <= a.smear_rows && v - k >= 0; ++k)
+  {
+    const float n = src.at<float>(v - k, u);
+    if (std::isfinite(n) && n - z > a.smear_jump && n > far)
+      far = n;
+  }
+  return far;
+}
+}  // namespace
+
+void addStereoArtefacts(cv::Mat& depth, std::uint64_t seed, const StereoArtefacts& a)
+{
+  if (depth.type() != CV_32FC1)
+    throw std::invalid_argument("addStereoArtefacts: image type " + cv::typeToString(depth.type()) +
+                                ": expected 32FC1");
+  if (!(a.focal_baseline > 0.0) || !(a.subpixel >= 0.0) || !(a.smear_rows >= 0) || !(a.max_range > 0.0))
+    throw std::invalid_argument("addStereoArtefacts: expected focal_baseline > 0, subpixel >= 0, smear_rows >= 0 "
+                                "and max_range > 0");
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const cv::Mat src = depth.clone();
+  const float inf = std::numeric_limits<float>::infinity();
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u)
+    {
+      const double n = normal(rng), p = uniform(rng), drop = uniform(rng);
+      float z = src.at<float>(v, u);
+      if (!std::isfinite(z))
+        continue;
+      const float far = smearSource(src, u, v, z, a);
+      if (far > z && p < a.smear)
+        z = far;
+      const double disparity = a.focal_baseline / z - a.bias + a.subpixel * n;
+      const double out = disparity > 0.0 ? a.focal_baseline / disparity : inf;
+      depth.at<float>(v, u) = drop < a.dropout || !(out <= a.max_range) ? inf : static_cast<float>(out);
+    }
+  // Wrong matches: small blobs at a random depth within range, drawn after the rest (the same seed, the same frame).
+  const int blobs = static_cast<int>(a.speckle * depth.total() / 4.0);
+  for (int i = 0; i < blobs; ++i)
+  {
+    const int u = static_cast<int>(uniform(rng) * (depth.cols - 1)), v = static_cast<int>(uniform(rng) * (depth.rows - 1));
+    const float z = static_cast<float>(0.3 + uniform(rng) * (a.max_range - 0.3));
+    for (int dv = 0; dv < 2; ++dv)
+      for (int du = 0; du < 2; ++du)
+        if (std::isfinite(depth.at<float>(v + dv, u + du)))
+          depth.at<float>(v + dv, u + du) = z;
+  }
+}
+
 cv::Mat encodeDepth(const cv::Mat& metres, int type, double max_depth)
 {
   if (metres.type() != CV_32FC1)

@@ -47,6 +47,7 @@ class Config:
     cliff_in_scan: bool
     surface_band: float
     cliff_min_pixels: int
+    cliff_min_drop: float
     confidence_window: int
     confidence_distance: float
     min_intensity: float
@@ -109,6 +110,8 @@ class FloorFit:
     def correction(self) -> PoseCorrection: ...
     @property
     def learned(self) -> PoseCorrection: ...
+    @property
+    def std(self) -> PoseCorrection: ...
 
 class Result:
     @property
@@ -142,7 +145,7 @@ class Result:
 
 class Pipeline:
     config: Config
-    floor_state: tuple[float, float, float, float | None]
+    floor_state: tuple[float | None, ...]
     def __init__(self, camera: Camera, config: Config) -> None: ...
     def process(
         self, depth: npt.ArrayLike, base_pitch: float = 0.0, base_roll: float = 0.0, stamp: float | None = None
@@ -207,6 +210,19 @@ def render_lidar(
 ) -> FloatArray: ...
 def add_tof_artefacts(
     depth: FloatArray, seed: int, max_range: float = 8.0, flying: float = 0.5, edge_jump: float = 0.3
+) -> FloatArray: ...
+def add_stereo_artefacts(
+    depth: FloatArray,
+    seed: int,
+    focal_baseline: float = 30.85,
+    subpixel: float = 0.08,
+    bias: float = 0.12,
+    speckle: float = 0.002,
+    smear_rows: int = 6,
+    smear_jump: float = 0.15,
+    smear: float = 0.5,
+    max_range: float = 10.0,
+    dropout: float = 0.01,
 ) -> FloatArray: ...
 def band_scan(depth: FloatArray, camera: Camera, band_rows: int = 1) -> FloatArray: ...
 def calibrate_from_floor(

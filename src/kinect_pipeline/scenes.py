@@ -92,6 +92,57 @@ def hole_scene() -> Scene:
     )
 
 
+def person(x: float, y: float) -> tuple[Box, ...]:
+    """A standing person as boxes: two feet, two legs 20 cm apart, a torso with arms; ``(x, y)`` the point between
+    the feet [m]."""
+    out: list[Box] = []
+    for side in (-0.1, 0.1):
+        out.append((x - 0.06, x + 0.2, y + side - 0.05, y + side + 0.05, 0.0, 0.08))  # foot
+        out.append((x - 0.06, x + 0.06, y + side - 0.06, y + side + 0.06, 0.0, 0.85))  # leg
+    out.append((x - 0.12, x + 0.12, y - 0.25, y + 0.25, 0.85, 1.45))  # torso and arms
+    out.append((x - 0.1, x + 0.1, y - 0.1, y + 0.1, 1.45, 1.72))  # head and neck
+    return tuple(out)
+
+
+def people_scene(seed: int = 0, count: int = 6, near: float = 1.2, far: float = 2.0) -> Scene:
+    """``count`` people standing ``near``..``far`` metres ahead across the view (seeded), and a far wall: the legs'
+    lowest pixels and the feet stand in the floor band, and little floor shows between them."""
+    rng = np.random.default_rng(seed)
+    boxes: list[Box] = []
+    names: list[str] = []
+    for i in range(count):
+        x = float(rng.uniform(near, far))
+        y = float((i - (count - 1) / 2) * 0.55 + rng.uniform(-0.1, 0.1))
+        part = person(x, y)
+        boxes += part
+        names += [f"person {i + 1}"] * len(part)
+    boxes.append((6.0, 6.2, -5.0, 5.0, 0.0, 2.8))
+    names.append("far wall")
+    return Scene(boxes=tuple(boxes), names=tuple(names), ceiling=2.8)
+
+
+def furniture_scene() -> Scene:
+    """Chairs, a table and a stand with low feet around the robot, walls behind: vertical legs in the floor band."""
+    boxes: list[tuple[str, Box]] = [
+        ("table top", (1.8, 2.6, -0.8, 0.4, 0.72, 0.76)),
+        ("table leg 1", (1.8, 1.85, -0.8, -0.75, 0.0, 0.72)),
+        ("table leg 2", (2.55, 2.6, -0.8, -0.75, 0.0, 0.72)),
+        ("table leg 3", (1.8, 1.85, 0.35, 0.4, 0.0, 0.72)),
+        ("table leg 4", (2.55, 2.6, 0.35, 0.4, 0.0, 0.72)),
+        ("chair seat", (1.3, 1.7, 0.7, 1.1, 0.42, 0.46)),
+        ("chair leg 1", (1.3, 1.33, 0.7, 0.73, 0.0, 0.42)),
+        ("chair leg 2", (1.67, 1.7, 0.7, 0.73, 0.0, 0.42)),
+        ("chair leg 3", (1.3, 1.33, 1.07, 1.1, 0.0, 0.42)),
+        ("chair leg 4", (1.67, 1.7, 1.07, 1.1, 0.0, 0.42)),
+        ("stand foot", (2.8, 3.3, -1.4, -0.9, 0.0, 0.03)),
+        ("stand pole", (3.03, 3.07, -1.17, -1.13, 0.0, 1.5)),
+        ("far wall", (4.5, 4.7, -4.0, 4.0, 0.0, 2.8)),
+        ("left wall", (0.0, 4.5, 2.0, 2.2, 0.0, 2.8)),
+        ("right wall", (0.0, 4.5, -2.6, -2.4, 0.0, 2.8)),
+    ]
+    return Scene(boxes=tuple(b for _, b in boxes), names=tuple(n for n, _ in boxes), ceiling=2.8)
+
+
 @dataclass
 class Frame:
     """One rendered frame: the encoded depth the pipeline reads and the ground truth."""
@@ -122,12 +173,15 @@ def render_frame(
     tof: bool = False,
     max_range: float = 8.0,
     flying: float = 0.5,
+    stereo: bool = False,
 ) -> Frame:
     """Renders ``scene`` seen from ``height`` with total ``pitch`` / ``roll`` [rad] and encodes it.
 
     ``seed=None`` gives a noise-free frame; otherwise Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts.
     ``tof=True`` adds the time-of-flight artefacts: nothing beyond ``max_range`` [m] and flying pixels at depth
-    jumps (probability ``flying``).
+    jumps (probability ``flying``). ``stereo=True`` gives an active stereo camera's frame instead of the Kinect's
+    noise (``_core.add_stereo_artefacts``: disparity noise and bias, wrong matches, the matching window's smear;
+    ``sigma0``, ``k`` and ``tof`` are then not used).
     """
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
@@ -142,6 +196,10 @@ def render_frame(
         ceiling=scene.ceiling,
     )
     metres = truth["depth"]
+    if stereo and seed is not None:
+        metres = _core.add_stereo_artefacts(metres, seed, dropout=dropout, max_range=max_range)
+        depth = _core.encode_depth(metres, encoding, max_depth)
+        return Frame(depth=depth, metres=metres, truth=dict(truth), height=height, pitch=pitch, roll=roll)
     if tof:
         metres = _core.add_tof_artefacts(metres, 0 if seed is None else seed + 7919, max_range, flying)
     if seed is not None:

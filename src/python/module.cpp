@@ -544,7 +544,7 @@ PYBIND11_MODULE(_core, m)
       .def_property_readonly("accepted", &FloorFitResult::accepted, "the frame was processed at the fitted pose")
       .def_property_readonly(
           "reason", [](const FloorFitResult& f) { return toString(f.status); },
-          "'accepted', 'off', 'too few pixels', 'spread too large', 'out of bounds' or 'ill-conditioned'")
+          "'accepted', 'off', 'too few pixels', 'spread too large', 'out of bounds', 'ill-conditioned' or 'not better than the prior'")
       .def_readonly("row_step", &FloorFitResult::row_step, "the fit samples every row_step-th row")
       .def_readonly("col_step", &FloorFitResult::col_step, "and every col_step-th pixel of such a row")
       .def_readonly("candidates", &FloorFitResult::candidates, "sampled pixels in the band where the floor can be")
@@ -557,6 +557,8 @@ PYBIND11_MODULE(_core, m)
       .def_readonly("fit", &FloorFitResult::fit, "fitted pose minus the prior (also when declined)")
       .def_readonly("correction", &FloorFitResult::applied, "the frame's pose minus the prior")
       .def_readonly("learned", &FloorFitResult::learned, "the learned correction after this frame")
+      .def_readonly("std", &FloorFitResult::std,
+                    "standard deviations of the fitted floor's terms: height [m], pitch and roll slopes [rad]")
       .def("__repr__", [](const FloorFitResult& f) {
         std::ostringstream s;
         s << "FloorFit(reason='" << toString(f.status) << "', pixels=" << f.pixels << ", support=" << f.support << ", candidates=" << f.candidates
@@ -619,21 +621,28 @@ PYBIND11_MODULE(_core, m)
           "floor_state",
           [](PyPipeline& self) {
             const FloorFit::State s = self.pipe.floorFit().state();
-            return py::make_tuple(s.learned.height, s.learned.pitch, s.learned.roll,
-                                  std::isfinite(s.last_stamp) ? py::cast(s.last_stamp) : py::none());
+            const auto opt = [](double v) { return std::isfinite(v) ? py::cast(v) : py::none(); };
+            return py::make_tuple(s.learned.height, s.learned.pitch, s.learned.roll, opt(s.last_stamp),
+                                  opt(s.weight.height), opt(s.weight.pitch), opt(s.weight.roll));
           },
           [](PyPipeline& self, const py::tuple& t) {
-            if (t.size() != 4)
-              throw py::value_error("floor_state: expected (height, pitch, roll, last_stamp or None), got " +
-                                    std::string(py::repr(t)));
+            if (t.size() != 4 && t.size() != 7)
+              throw py::value_error("floor_state: expected (height, pitch, roll, last_stamp or None[, weight of "
+                                    "height, pitch, roll or None]), got " + std::string(py::repr(t)));
+            const auto num = [](const py::handle& v) {
+              return v.is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(v);
+            };
             FloorFit::State s;
             s.learned = {py::cast<double>(t[0]), py::cast<double>(t[1]), py::cast<double>(t[2])};
-            s.last_stamp = t[3].is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(t[3]);
+            s.last_stamp = num(t[3]);
+            if (t.size() == 7)
+              s.weight = {num(t[4]), num(t[5]), num(t[6])};
             std::lock_guard<std::mutex> lock(self.mutex);
             self.pipe.restoreFloorFit(s);
           },
           "What the floor refinement carries between frames: (learned height [m], pitch, roll [rad], the last "
-          "frame's stamp [s] or None); set it to continue another run exactly (a resumed replay).")
+          "frame's stamp [s] or None, the learned correction's weight per term or None); set it to continue another "
+          "run exactly (a resumed replay).")
       .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
           [](PyPipeline& self, const Config& c) {
@@ -898,6 +907,26 @@ PYBIND11_MODULE(_core, m)
       },
       py::arg("depth"), py::arg("seed"), py::arg("max_range") = 8.0, py::arg("flying") = 0.5, py::arg("edge_jump") = 0.3,
       "Copy of a float32 depth [m] with pixels beyond max_range unknown (+Inf) and flying pixels at depth jumps.");
+  m.def(
+      "add_stereo_artefacts",
+      [](py::array_t<float, py::array::c_style> depth, std::uint64_t seed, double focal_baseline, double subpixel,
+         double bias, double speckle, int smear_rows, double smear_jump, double smear, double max_range,
+         double dropout) {
+        if (depth.ndim() != 2)
+          throw py::value_error("depth: expected a 2-D float32 array");
+        py::array_t<float> out({depth.shape(0), depth.shape(1)});
+        std::memcpy(out.mutable_data(), depth.data(), depth.nbytes());
+        cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
+        addStereoArtefacts(m, seed,
+                           {focal_baseline, subpixel, bias, speckle, smear_rows, smear_jump, smear, max_range, dropout});
+        return out;
+      },
+      py::arg("depth"), py::arg("seed"), py::arg("focal_baseline") = 617.0 * 0.05, py::arg("subpixel") = 0.08,
+      py::arg("bias") = 0.12, py::arg("speckle") = 0.002, py::arg("smear_rows") = 6, py::arg("smear_jump") = 0.15,
+      py::arg("smear") = 0.5, py::arg("max_range") = 10.0, py::arg("dropout") = 0.01,
+      "Copy of a float32 depth [m] with an active stereo camera's artefacts (RealSense-like): disparity noise "
+      "(subpixel [px]) and offset (bias [px]), wrong matches in blobs (speckle), the matching window's smear "
+      "(smear_rows above a pixel, smear_jump [m], probability smear), dropouts and nothing beyond max_range [m].");
   m.def(
       "band_scan",
       [](py::array_t<float, py::array::c_style> depth, const Camera& cam, int band_rows) {

@@ -53,25 +53,48 @@ struct Truth
   std::vector<int> pixels;      // below-floor pixels per beam
 };
 
-// The pipeline's below-floor pixels at their opened depth, binned by the reference binning (double precision
-// rays, bins between neighbouring centres to the nearer one).
-Truth perBeam(const Camera& cam, const cv::Mat& labels, const cv::Mat& opened, double pitch, double roll,
-              const ScanData& scan)
+// The evidence rule, written out slowly: the largest depth (1 mm steps) where a drop of min_drop seen from height
+// h puts the lower level more than t(d) beyond the floor.
+double cliffMaxDepth(const Config& cfg, double h)
+{
+  double best = 0.0;
+  for (double d = 0.001; d <= 30.0; d += 0.001)
+    if (d * cfg.cliff_min_drop / (h + cfg.cliff_min_drop) >= evaluateCurve(cfg.threshold_curve, d))
+      best = d;
+  return best;
+}
+
+// The pipeline's below-floor pixels at their opened depth that are cliff evidence (at least cliff_min_drop below
+// the floor, within cliffMaxDepth), binned by the reference binning (double precision rays, bins between
+// neighbouring centres to the nearer one); a beam's cliff no nearer than its obstacle minus t(obstacle) dropped.
+Truth perBeam(const Camera& cam, const Config& cfg, const cv::Mat& labels, const cv::Mat& opened,
+              const SensorPose& pose, const ScanData& scan)
 {
   const int beams = static_cast<int>(scan.ranges.size());
   Truth t{std::vector<double>(beams, kp_test::kInf), std::vector<int>(beams, 0)};
   const double lo = scan.angle_min - 0.5 * scan.angle_increment;
+  const double max_depth = cliffMaxDepth(cfg, pose.height);
   std::vector<double> f(labels.cols), rng(labels.cols);
   for (int r = 0; r < labels.rows; ++r)
   {
     for (int u = 0; u < labels.cols; ++u)
     {
-      const kp_test::V3 d = kp_test::rayWorld(cam, u, r, pitch, roll);
+      const kp_test::V3 d = kp_test::rayWorld(cam, u, r, pose.pitch, pose.roll);
+      const double z = opened.at<float>(r, u);
+      const bool evidence = z <= max_depth && pose.height + z * d.z < -cfg.cliff_min_drop;
       f[u] = (std::atan2(d.y, d.x) - lo) / scan.angle_increment;
-      rng[u] = labels.at<std::uint8_t>(r, u) == kBelowFloor ? opened.at<float>(r, u) * std::hypot(d.x, d.y)
-                                                            : kp_test::kInf;
+      rng[u] = labels.at<std::uint8_t>(r, u) == kBelowFloor && evidence ? z * std::hypot(d.x, d.y) : kp_test::kInf;
     }
     kp_test::binRow(f, rng, t.nearest, &t.pixels);
+  }
+  for (int b = 0; b < beams; ++b)
+  {
+    const double obstacle = scan.ranges[b];
+    if (std::isfinite(obstacle) && obstacle <= t.nearest[b] + evaluateCurve(cfg.threshold_curve, obstacle))
+    {
+      t.nearest[b] = kp_test::kInf;
+      t.pixels[b] = 0;
+    }
   }
   return t;
 }
@@ -140,7 +163,7 @@ void checkCliff(const CliffCase& c)
   checkLabelsAgainstTruth(res.labels, gt);
   // binned at the pose the frame was processed at (the floor refinement's, within noise of the truth)
   EXPECT_NEAR(res.pose.pitch, c.pitch, 0.002);
-  const Truth t = perBeam(cam, res.labels, openedMetres(frame, cfg.max_depth), res.pose.pitch, res.pose.roll, res.scan);
+  const Truth t = perBeam(cam, cfg, res.labels, openedMetres(frame, cfg.max_depth), res.pose, res.scan);
   const double tol = 1e-3;  // float against double rays
   int seen = 0, cliff_beams = 0, off = 0;
   for (std::size_t b = 0; b < t.pixels.size(); ++b)

@@ -202,18 +202,26 @@ TEST(FloorFit, DeclinesWithoutFloorAndKeepsThePrior)
   }
 }
 
-TEST(FloorFit, DeclinesACorrectionBeyondItsBounds)
+TEST(FloorFit, AcceptsBeyondItsBoundsOnlyWithClearSupportAndNeverBeyondTwice)
 {
-  // Told 3 cm high with a bound of 2 cm: the fit finds the floor but may not move that far.
+  // Bound 2 cm. Told 1.5 cm high: within the bound. Told 3 cm high: beyond it, but the whole floor supports the fit
+  // (a rocking platform): accepted. Told 5 cm high: beyond twice the bound, declined whatever the support.
   const SensorPose truth{1.1, 15 * kDeg, 0.0};
   const cv::Mat depth = frameOf(Scene{}, truth, CV_16UC1, 3);
   Config cfg;
   cfg.floor_max_height_error = 0.02;
-  const SensorPose prior = told(truth, {0.015, 0, 0});
-  EXPECT_TRUE(refined(depth, prior, cfg).floor_fit.accepted());
-  const FrameResult r = refined(depth, told(truth, {0.03, 0, 0}), cfg);
+  EXPECT_TRUE(refined(depth, told(truth, {0.015, 0, 0}), cfg).floor_fit.accepted());
+  const FrameResult beyond = refined(depth, told(truth, {0.03, 0, 0}), cfg);
+  ASSERT_TRUE(beyond.floor_fit.accepted()) << toString(beyond.floor_fit.status);
+  EXPECT_NEAR(beyond.pose.height, truth.height, 0.002);
+  const FrameResult r = refined(depth, told(truth, {0.05, 0, 0}), cfg);
   EXPECT_NE(r.floor_fit.status, FloorFitStatus::kAccepted);
-  EXPECT_EQ(r.pose.height, truth.height + 0.03);
+  EXPECT_EQ(r.pose.height, truth.height + 0.05);
+  // Little floor in view (a strip the frame barely supports): beyond the bound is declined.
+  Config strict = cfg;
+  strict.floor_min_pixels = beyond.floor_fit.pixels * 2 / 3;
+  const FrameResult weak = refined(depth, told(truth, {0.03, 0, 0}), strict);
+  EXPECT_EQ(weak.floor_fit.status, FloorFitStatus::kOutOfBounds) << toString(weak.floor_fit.status);
 }
 
 TEST(FloorFit, DeclinesResidualsWiderThanTheNoise)
@@ -304,8 +312,9 @@ TEST(FloorFit, KeepsTheFloorBesideAStairDown)
 
 TEST(FloorFit, LearnsAPersistentErrorWithItsTimeConstant)
 {
-  // Every frame told 4 cm too high, 30 Hz stamps: after one time constant the learned correction holds about
-  // 1 - 1/e of the error; then with no floor in view the frames are processed at the prior plus what was learned.
+  // Every frame told 4 cm too high, 30 Hz stamps: the first well-supported fit weighs far more than the prior (its
+  // variance is tiny against the bound's), so the learned correction holds the error within the first frames;
+  // then with no floor in view the frames are processed at the prior plus what was learned.
   const SensorPose truth{1.1, 15 * kDeg, 0.0};
   const cv::Mat floor = frameOf(Scene{}, truth, CV_16UC1, 5);
   Config cfg;
@@ -313,10 +322,11 @@ TEST(FloorFit, LearnsAPersistentErrorWithItsTimeConstant)
   Pipeline p(kinect(), cfg);
   FrameResult out;
   const SensorPose prior = told(truth, {0.04, 0, 0});
-  for (int i = 0; i <= 30; ++i)
-    p.process(floor, prior, out, 100.0 + i / 30.0);
+  p.process(floor, prior, out, 100.0);
   ASSERT_TRUE(out.floor_fit.accepted());
-  EXPECT_NEAR(p.floorFit().learned().height, -0.04 * (1.0 - std::exp(-1.0)), 0.002);
+  EXPECT_NEAR(p.floorFit().learned().height, -0.04, 0.004);
+  for (int i = 1; i <= 30; ++i)
+    p.process(floor, prior, out, 100.0 + i / 30.0);
   for (int i = 31; i <= 300; ++i)
     p.process(floor, prior, out, 100.0 + i / 30.0);
   // Learning stops once what is left moves the floor by less than a tenth of t(d) (3 mm near the robot).
