@@ -16,9 +16,10 @@ import pytest
 pytest.importorskip("rosbags")
 cv2 = pytest.importorskip("cv2")
 
-from kinect_pipeline.bag import write_sequence_bag
-from kinect_pipeline.bags import BagWriter, open_bag
-from kinect_pipeline.replay import ReplayError, replay
+from kinect_pipeline.bags.reader import open_bag
+from kinect_pipeline.bags.writer import BagWriter
+from kinect_pipeline.simulation.sequence_bag import write_sequence_bag
+from kinect_pipeline.tools.replay import ReplayError, replay
 
 FRAMES = 4
 RAW = "/kinect2/sd/image_depth"
@@ -60,7 +61,7 @@ def recompress(src: Path, dst: Path, fmt: str, text: str = "16UC1; compressedDep
 
 
 def kp_header(w: BagWriter, img: object) -> object:
-    from kinect_pipeline.bags import header
+    from kinect_pipeline.bags.messages import header
 
     return header(w.types, img.header.stamp, img.header.frame_id, getattr(img.header, "seq", 0))  # type: ignore[attr-defined]
 

@@ -14,10 +14,10 @@ import pytest
 pytest.importorskip("rosbags")
 
 import kinect_pipeline as kp
-from kinect_pipeline.bag import Rig, write_sequence_bag
 from kinect_pipeline.cli import main
-from kinect_pipeline.demo import SegwayMotion
-from kinect_pipeline.replay import ReplayError, ReplayOptions, replay
+from kinect_pipeline.simulation.robot import Rig, SegwayMotion
+from kinect_pipeline.simulation.sequence_bag import write_sequence_bag
+from kinect_pipeline.tools.replay import ReplayError, ReplayOptions, replay
 
 FRAMES = 12
 
@@ -150,7 +150,7 @@ def test_synth_refuses_to_overwrite(tmp_path: Path) -> None:
 
 
 def test_report_writes_pictures_and_an_index(bag: Path, tmp_path: Path) -> None:
-    from kinect_pipeline.report import write_report
+    from kinect_pipeline.evaluation.report import write_report
 
     summary = write_report(bag, tmp_path / "rep", show_progress=False)
     for name in ("frame.png", "scan.png", "confidence.png", "timing.png", "index.html", "quality.json"):

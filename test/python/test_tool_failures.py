@@ -10,7 +10,7 @@ from clitool import cli
 
 pytest.importorskip("rosbags")
 
-from kinect_pipeline.bag import write_sequence_bag
+from kinect_pipeline.simulation.sequence_bag import write_sequence_bag
 
 
 @pytest.fixture(scope="module")

@@ -20,10 +20,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bag import write_sequence_bag
-    from ..demo import run_demo
-    from ..replay import format_report, partial_path, replay
-    from ..report import write_report
+    from ..evaluation.report import write_report
+    from ..simulation.sequence_bag import write_sequence_bag
+    from ..tools.demo import run_demo
+    from ..tools.replay import format_report, partial_path, replay
 
     with output_folder(Path(args.out)) as out:
         summary = run_demo(out, frames=args.frames, encoding=args.encoding, seed=args.seed)

@@ -34,7 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bag import write_sequence_bag
+    from ..simulation.sequence_bag import write_sequence_bag
 
     check([], [named("output", args.output)])
     summary = write_sequence_bag(

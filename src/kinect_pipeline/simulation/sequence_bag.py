@@ -8,45 +8,19 @@ The tf tree is the one of a Segway robot: ``base_footprint`` (on the floor, grav
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from . import _core, kinect_v2_camera
-from .bags import BagWriter, image_message, output_format
-from .demo import SegwayMotion, progress
-from .metrics import ideal_scan
-from .outputs import atomic_new
-from .scenes import ENCODINGS, KEPT, Scene, lab_scene, render_frame, truth_labels
+from .. import _core, kinect_v2_camera
+from ..bags.messages import image_message, typestore
+from ..bags.writer import BagWriter, output_format
+from ..outputs import atomic_new, progress
+from .robot import AXLE_HEIGHT, Rig, SegwayMotion
+from .scenes import ENCODINGS, KEPT, Scene, ideal_scan, lab_scene, render_frame, truth_labels
 
-AXLE_HEIGHT = 0.24  #: wheel axle above the floor [m]
 _SUFFIX_FORMAT = {".mcap": "mcap", ".db3": "sqlite3"}  #: single-file rosbag2 bags
-
-
-@dataclass
-class Rig:
-    """Where the sensors sit on the robot."""
-
-    kinect_xyz: tuple[float, float, float] = (0.10, 0.0, 0.86)  #: kinect2_link in base_link (axle) [m]
-    kinect_tilt: float = math.radians(15.0)  #: kinect2_link pitch in base_link [rad], + looks down
-    lidar_height: float = 0.30  #: LiDAR plane above the floor [m]
-    camera_ns: str = "/kinect2"
-    image_topic: str = "/kinect2/sd/image_depth"
-    info_topic: str = "/kinect2/sd/camera_info"
-    lidar_topic: str = "/scan_lidar"
-    optical_frame: str = "kinect2_depth_optical_frame"
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def sensor_pose(self, base_pitch: float) -> tuple[float, float, float, float]:
-        """(x, z, total pitch, height above the floor) of the optical centre in base_footprint for a base pitched
-        by ``base_pitch`` about the wheel axle (base_link's origin)."""
-        x, _, z = self.kinect_xyz
-        c, s = math.cos(base_pitch), math.sin(base_pitch)
-        px = c * x + s * z
-        pz = AXLE_HEIGHT - s * x + c * z
-        return px, pz, self.kinect_tilt + base_pitch, pz
 
 
 def _quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
@@ -56,15 +30,6 @@ def _quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float,
 
 # Optical frame in the sensor's body frame (x right, y down, z forward vs x forward, z up).
 _OPTICAL_IN_BODY = (-0.5, 0.5, -0.5, 0.5)
-
-
-def _typestore() -> Any:
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    ts = get_typestore(Stores.ROS1_NOETIC)
-    if "tf2_msgs/msg/TFMessage" not in ts.types:
-        ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"))
-    return ts
 
 
 def write_sequence_bag(
@@ -114,7 +79,7 @@ def write_sequence_bag(
     rig = rig or Rig()
     motion = motion or SegwayMotion()
     cam = kinect_v2_camera()
-    ts = _typestore()
+    ts = typestore()
     T = ts.types
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
     Image, CameraInfo, LaserScan = (

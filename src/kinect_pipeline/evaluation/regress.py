@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from .bag import write_sequence_bag
-from .outputs import atomic_file
-from .replay import ReplayOptions
+from ..outputs import atomic_file
+from ..simulation.sequence_bag import write_sequence_bag
+from ..tools.replay import ReplayOptions
 from .report import collect
 
-GOLDEN_DIR = Path(__file__).resolve().parents[2] / "test" / "golden"
+GOLDEN_DIR = Path(__file__).resolve().parents[3] / "test" / "golden"
 
 
 @dataclass(frozen=True)
