@@ -18,7 +18,7 @@ cv2 = pytest.importorskip("cv2")
 
 from kinect_pipeline.bags.reader import open_bag
 from kinect_pipeline.bags.writer import BagWriter
-from kinect_pipeline.simulation.sequence_bag import write_sequence_bag
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 from kinect_pipeline.tools.replay import ReplayError, replay
 
 FRAMES = 4
@@ -69,7 +69,7 @@ def kp_header(w: BagWriter, img: object) -> object:
 @pytest.fixture(scope="module")
 def raw_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("raw") / "raw.bag"
-    write_sequence_bag(path, frames=FRAMES, encoding="16UC1", seed=12)
+    write_sequence_bag(path, Scenario(frames=FRAMES, encoding="16UC1", seed=12))
     return path
 
 
@@ -116,7 +116,7 @@ def test_report_calibrate_and_quality_read_compressed_depth(raw_bag: Path, tmp_p
 
 def test_float_compressed_depth_through_the_cores_encoder(tmp_path: Path) -> None:
     bag = tmp_path / "f.bag"
-    write_sequence_bag(bag, frames=3, encoding="32FC1", seed=2, compressed=True)
+    write_sequence_bag(bag, Scenario(frames=3, encoding="32FC1", seed=2, compressed=True))
     r = replay(bag, tmp_path / "o.bag", show_progress=False)
     assert r.processed == 3
     with open_bag(tmp_path / "o.bag") as out:

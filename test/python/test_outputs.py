@@ -39,10 +39,10 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from kinect_pipeline.simulation.sequence_bag import write_sequence_bag
+    from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 
     path = tmp_path_factory.mktemp("bags") / "B.bag"
-    write_sequence_bag(path, frames=3, encoding="16UC1", seed=2)
+    write_sequence_bag(path, Scenario(frames=3, encoding="16UC1", seed=2))
     return path
 
 
