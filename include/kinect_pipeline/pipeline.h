@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -65,6 +66,13 @@ struct FrameResult
   FloorFitResult floor_fit;        ///< what the floor refinement decided (status kOff when refine_floor is false)
   StageTimes times;
 };
+
+/**
+ * @return the frame in one line, as the Python binding's Result shows it: "Result(512x424 uint16, 512 beams: 498
+ *         finite, nearest 0.84 m, 0 cliff; pixels kept 30.1 % invalid 2.0 % ...; 3.120 ms)". Reads the depth image's
+ *         size and type, not its pixels.
+ */
+std::string describe(const FrameResult& r);
 
 namespace detail
 {

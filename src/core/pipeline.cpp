@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -365,6 +367,38 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 
   // Stage 3: the scan.
   scanStage<T>(depth, loop, binner, config_, threads, work, confidence_, out);
+}
+
+std::string describe(const FrameResult& r)
+{
+  const int type = r.depth.type();
+  const char* dtype = type == CV_8UC1 ? "uint8" : type == CV_16UC1 ? "uint16" : "float32";  // numpy's names
+  int finite = 0;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (const float v : r.scan.ranges)
+    if (std::isfinite(v))
+    {
+      ++finite;
+      nearest = std::min(nearest, v);
+    }
+  int cliffs = 0;
+  for (const float v : r.cliff.ranges)
+    cliffs += std::isfinite(v) ? 1 : 0;
+  double total = 0.0;
+  for (const std::uint64_t n : r.counts)
+    total += static_cast<double>(n);
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s << "Result(" << r.depth.cols << "x" << r.depth.rows << " " << dtype << ", " << r.scan.ranges.size()
+    << " beams: " << finite << " finite";
+  if (finite)
+    s << std::setprecision(2) << ", nearest " << nearest << " m";
+  s << ", " << cliffs << " cliff; pixels";
+  for (int k = 0; k < kNumLabels; ++k)
+    s << " " << kLabelNames[k] << " " << std::setprecision(1)
+      << (total > 0 ? 100.0 * static_cast<double>(r.counts[k]) / total : 0.0) << " %";
+  s << "; " << std::setprecision(3) << r.times.total << " ms)";
+  return s.str();
 }
 
 }  // namespace kinect_pipeline

@@ -677,6 +677,25 @@ TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
   EXPECT_NO_THROW(pipe.process(cv::Mat(424, 512, CV_16UC1, cv::Scalar(1000)), 0.0, 0.0, res));
 }
 
+TEST(PipelineEdge, DescribeSaysSizeBeamsAndShares)
+{
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  pipe.process(cv::Mat(cam.height, cam.width, CV_16UC1, cv::Scalar(0)), 0.0, 0.0, res);
+  const std::string none = describe(res);
+  EXPECT_EQ(none.rfind("Result(512x424 uint16, " + std::to_string(res.scan.ranges.size()) + " beams: 0 finite, 0 cliff;"
+                       " pixels kept 0.0 % invalid 100.0 % floor 0.0 % above_ceiling 0.0 % below_floor 0.0 %; ", 0),
+            0u)
+      << none;
+  cv::Mat wall(cam.height, cam.width, CV_32FC1, cv::Scalar(2.0f));
+  pipe.process(wall, 0.0, 0.0, res);
+  const std::string text = describe(res);
+  EXPECT_EQ(text.rfind("Result(512x424 float32, ", 0), 0u) << text;
+  EXPECT_NE(text.find(" finite, nearest "), std::string::npos) << text;
+  EXPECT_EQ(text.substr(text.size() - 4), " ms)") << text;
+}
+
 TEST(PipelineEdge, FramesNeedNoAllocationOnceWarm)
 {
   // The result's buffers are reused: same data pointers frame after frame.
