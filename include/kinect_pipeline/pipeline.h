@@ -130,8 +130,9 @@ public:
    * @param base_roll base roll added to sensor_roll [rad], + right side down
    * @param out result; its buffers are reused
    * @param stamp the frame's time [s], for the floor refinement's learned correction; NaN: 1/30 s after the last
-   * @throw std::invalid_argument for another type, an empty image, a size that disagrees with the camera,
-   *        or a non-finite pose; nothing is changed then.
+   * @throw std::invalid_argument for another type, an empty image, a 32FC1 image that is plainly millimetres
+   *        (the median of its valid pixels above 100 m), a size that disagrees with the camera, or a non-finite
+   *        pose; nothing is changed then.
    */
   void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out,
                double stamp = std::numeric_limits<double>::quiet_NaN());
