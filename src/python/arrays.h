@@ -9,7 +9,7 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
-#include "kinect_pipeline/encoding.h"
+#include "kinect_pipeline/model/encoding.h"
 
 namespace kinect_pipeline::python
 {

@@ -12,10 +12,10 @@
 
 #include "arrays.h"
 #include "bind.h"
-#include "kinect_pipeline/compressed_depth.h"
-#include "kinect_pipeline/depth_image.h"
-#include "kinect_pipeline/encoding.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/io/compressed_depth.h"
+#include "kinect_pipeline/io/depth_image.h"
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/tools/synthetic.h"
 
 namespace kinect_pipeline::python
 {

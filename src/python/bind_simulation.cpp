@@ -13,12 +13,12 @@
 
 #include "arrays.h"
 #include "bind.h"
-#include "kinect_pipeline/calibration.h"
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/morphology.h"
-#include "kinect_pipeline/synthetic.h"
-#include "kinect_pipeline/visualize.h"
+#include "kinect_pipeline/io/visualize.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/stages/opening_kernels.h"
+#include "kinect_pipeline/tools/calibration.h"
+#include "kinect_pipeline/tools/synthetic.h"
 
 namespace kinect_pipeline::python
 {

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "test_util.h"
 
 using kp_test::slowCurve;
