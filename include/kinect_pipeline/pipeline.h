@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <limits>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -52,6 +53,13 @@ struct FrameResult
   FloorFitResult floor_fit;        ///< what the floor refinement decided (status kOff when refine_floor is false)
   StageTimes times;
 };
+
+/**
+ * @return the frame in one line, as the Python binding's Result shows it: "Result(512x424 uint16, 512 beams: 498
+ *         finite, nearest 0.84 m, 0 cliff; pixels kept 30.1 % invalid 2.0 % ...; 3.120 ms)". Reads the depth image's
+ *         size and type, not its pixels.
+ */
+std::string describe(const FrameResult& r);
 
 namespace detail
 {
@@ -109,8 +117,9 @@ public:
    * @param base_roll base roll added to sensor_roll [rad], + right side down
    * @param out result; its buffers are reused
    * @param stamp the frame's time [s], for the floor refinement's learned correction; NaN: 1/30 s after the last
-   * @throw std::invalid_argument for another type, an empty image, a size that disagrees with the camera,
-   *        or a non-finite pose; nothing is changed then.
+   * @throw std::invalid_argument for another type, an empty image, a 32FC1 image that is plainly millimetres
+   *        (the median of its valid pixels above 100 m), a size that disagrees with the camera, or a non-finite
+   *        pose; nothing is changed then.
    */
   void process(const cv::Mat& depth, double base_pitch, double base_roll, FrameResult& out,
                double stamp = std::numeric_limits<double>::quiet_NaN());

@@ -677,6 +677,51 @@ TEST(PipelineEdge, BadInputIsRefusedWithTheValues)
   EXPECT_NO_THROW(pipe.process(cv::Mat(424, 512, CV_16UC1, cv::Scalar(1000)), 0.0, 0.0, res));
 }
 
+TEST(PipelineEdge, FloatMillimetresAreRefusedMetresKept)
+{
+  // A 32FC1 image is metres; one whose valid pixels have a median above 100 is plainly millimetres (the
+  // binding, the ROS node and C++ callers all get this refusal from the core).
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  cv::Mat mm(cam.height, cam.width, CV_32FC1, cv::Scalar(2500.0f));
+  mm.rowRange(0, 200).setTo(0.0f);  // unknown pixels do not count
+  try
+  {
+    pipe.process(mm, 0.0, 0.0, res);
+    ADD_FAILURE() << "no exception for millimetres in 32FC1";
+  }
+  catch (const std::invalid_argument& e)
+  {
+    EXPECT_NE(std::string(e.what()).find("median of 2500"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("millimetres, not metres"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(pipe.process(mm / 1000.0, 0.0, 0.0, res));
+  cv::Mat far(cam.height, cam.width, CV_32FC1, cv::Scalar(std::numeric_limits<float>::infinity()));
+  far.rowRange(0, 10).setTo(99.0f);  // a median under 100 m is metres, however far
+  EXPECT_NO_THROW(pipe.process(far, 0.0, 0.0, res));
+  EXPECT_NO_THROW(pipe.process(cv::Mat(cam.height, cam.width, CV_16UC1, cv::Scalar(2500)), 0.0, 0.0, res));
+}
+
+TEST(PipelineEdge, DescribeSaysSizeBeamsAndShares)
+{
+  const Camera cam = kinect();
+  Pipeline pipe(cam, Config());
+  FrameResult res;
+  pipe.process(cv::Mat(cam.height, cam.width, CV_16UC1, cv::Scalar(0)), 0.0, 0.0, res);
+  const std::string none = describe(res);
+  EXPECT_EQ(none.rfind("Result(512x424 uint16, " + std::to_string(res.scan.ranges.size()) + " beams: 0 finite, 0 cliff;"
+                       " pixels kept 0.0 % invalid 100.0 % floor 0.0 % above_ceiling 0.0 % below_floor 0.0 %; ", 0),
+            0u)
+      << none;
+  cv::Mat wall(cam.height, cam.width, CV_32FC1, cv::Scalar(2.0f));
+  pipe.process(wall, 0.0, 0.0, res);
+  const std::string text = describe(res);
+  EXPECT_EQ(text.rfind("Result(512x424 float32, ", 0), 0u) << text;
+  EXPECT_NE(text.find(" finite, nearest "), std::string::npos) << text;
+  EXPECT_EQ(text.substr(text.size() - 4), " ms)") << text;
+}
+
 TEST(PipelineEdge, FramesNeedNoAllocationOnceWarm)
 {
   // The result's buffers are reused: same data pointers frame after frame.

@@ -29,6 +29,24 @@ TEST(SensorModel, KinectV2IsTodaysDefault)
   EXPECT_EQ(sensorModels().front().name, kDefaultSensorModel);
 }
 
+TEST(SensorModel, TopicsAreTheImageInItsNamespaceWithCameraInfoBeside)
+{
+  const SensorModel& k = sensorModel("kinect_v2");
+  EXPECT_EQ(k.depthTopic(), "/kinect2/sd/image_depth");
+  EXPECT_EQ(k.infoTopic(), "/kinect2/sd/camera_info");
+  for (const SensorModel& m : sensorModels())
+  {
+    const std::string depth = m.depthTopic(), info = m.infoTopic();
+    EXPECT_EQ(depth.substr(depth.size() - m.image.size()), m.image) << m.name;
+    EXPECT_EQ(info.substr(0, info.rfind('/')), depth.substr(0, depth.rfind('/'))) << m.name;
+    EXPECT_EQ(info.substr(info.rfind('/')), "/camera_info") << m.name;
+  }
+  SensorModel bare;
+  bare.image = "depth";
+  EXPECT_EQ(bare.depthTopic(), "/depth");
+  EXPECT_EQ(bare.infoTopic(), "/camera_info");
+}
+
 TEST(SensorModel, EveryCurveIsValidAndFollowsItsNoise)
 {
   for (const SensorModel& m : sensorModels())

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <stdexcept>
+#include <string>
 
 #include "kinect_pipeline/model/threshold_curve.h"
 #include "test_util.h"
@@ -15,6 +17,24 @@ TEST(ThresholdCurve, InterpolatesLikeTheReference)
   const std::vector<CurvePoint> c = {{0.5, 0.02}, {1.0, 0.03}, {4.0, 0.2}, {8.0, 0.6}};
   for (double d = 0.0; d < 10.0; d += 0.01)
     EXPECT_NEAR(evaluateCurve(c, d), slowCurve(c, d), 1e-12) << d;
+}
+
+TEST(Encoding, NamesReadBackAndOthersAreNamed)
+{
+  for (const Encoding e : {Encoding::kMono8, Encoding::kMono16, Encoding::kFloat32})
+    EXPECT_EQ(encodingFromString(toString(e)), e);
+  for (const char* bad : {"mono16", "16uc1", "", "64FC1"})
+  {
+    try
+    {
+      encodingFromString(bad);
+      ADD_FAILURE() << bad;
+    }
+    catch (const std::invalid_argument& e)
+    {
+      EXPECT_EQ(std::string(e.what()), "encoding '" + std::string(bad) + "': expected 8UC1, 16UC1 or 32FC1");
+    }
+  }
 }
 
 TEST(ThresholdLut, EightBitIndexedByValueNeverBelowOneStep)

@@ -23,6 +23,13 @@ enum class Encoding
 /** @return "8UC1", "16UC1" or "32FC1". */
 std::string toString(Encoding e);
 
+/**
+ * @return the encoding called @p name, one of toString()'s names ("8UC1", "16UC1", "32FC1"; not the message
+ *         aliases mono8/mono16, which depthFromBuffer() reads).
+ * @throw std::invalid_argument naming @p name and the three names.
+ */
+Encoding encodingFromString(const std::string& name);
+
 /** @return the depth of one step of the encoding [m] (8-bit: max_depth / 255; 16-bit: 1 mm; float: 0). */
 double encodingStep(Encoding e, double max_depth);
 

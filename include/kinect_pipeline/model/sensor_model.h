@@ -55,6 +55,10 @@ struct SensorModel
   std::vector<CurvePoint> thresholdCurve() const;
   /** @return cliff_min_pixels covering the solid angle the default (3 px of a Kinect v2) covers. */
   int cliffMinPixels() const;
+  /** @return the depth image's full topic: "/" camera_ns "/" image, e.g. "/camera/depth/image_raw". */
+  std::string depthTopic() const;
+  /** @return its camera_info's topic: "camera_info" beside the image, e.g. "/camera/depth/camera_info". */
+  std::string infoTopic() const;
 };
 
 /** @return every preset, the default (kinect_v2) first. */

@@ -82,6 +82,17 @@ int SensorModel::cliffMinPixels() const
   return std::max(kCliffPixels, static_cast<int>(std::lround(kCliffPixels * scale)));
 }
 
+std::string SensorModel::depthTopic() const
+{
+  return (camera_ns.empty() ? "" : "/" + camera_ns) + "/" + image;
+}
+
+std::string SensorModel::infoTopic() const
+{
+  const std::string depth = depthTopic();
+  return depth.substr(0, depth.rfind('/') + 1) + "camera_info";
+}
+
 const std::vector<SensorModel>& sensorModels()
 {
   static const std::vector<SensorModel> models = makeModels();

@@ -23,6 +23,14 @@ std::string toString(Encoding e)
   }
 }
 
+Encoding encodingFromString(const std::string& name)
+{
+  for (const Encoding e : {Encoding::kMono8, Encoding::kMono16, Encoding::kFloat32})
+    if (name == toString(e))
+      return e;
+  throw std::invalid_argument("encoding '" + name + "': expected 8UC1, 16UC1 or 32FC1");
+}
+
 double encodingStep(Encoding e, double max_depth)
 {
   switch (e)

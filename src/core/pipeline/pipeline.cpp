@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -201,6 +203,37 @@ void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binne
 
 constexpr double kHalfPi = 1.57079632679489661923;
 
+/** Depth in 32FC1 is metres: an image whose valid pixels have a median above this [m] is plainly millimetres. */
+constexpr float kMillimetreMedian = 100.0f;
+
+/** @throw std::invalid_argument for a CV_32FC1 image that is plainly millimetres: the median of its valid pixels,
+ *  on a subsample of about 4096, above kMillimetreMedian. */
+void checkMetres(const cv::Mat& depth)
+{
+  if (depth.type() != CV_32FC1)
+    return;
+  std::vector<float> v;
+  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(depth.total()) / 4096.0)));
+  for (int r = 0; r < depth.rows; r += step)
+  {
+    const float* row = depth.ptr<float>(r);
+    for (int u = 0; u < depth.cols; u += step)
+      if (row[u] > 0.0f && std::isfinite(row[u]))
+        v.push_back(row[u]);
+  }
+  if (v.empty())
+    return;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  const float median = v[v.size() / 2];
+  if (median > kMillimetreMedian)
+  {
+    std::ostringstream s;
+    s << "depth: float32 with a median of " << median << " over its valid pixels: that is millimetres, not metres "
+      << "(a float32 depth image is in metres: divide it by 1000, or pass the uint16 millimetres as they are)";
+    throw std::invalid_argument(s.str());
+  }
+}
+
 void checkImage(const cv::Mat& depth, const Camera& camera)
 {
   if (depth.empty())
@@ -210,6 +243,7 @@ void checkImage(const cv::Mat& depth, const Camera& camera)
   if (depth.dims != 2 || (type != CV_8UC1 && type != CV_16UC1 && type != CV_32FC1))
     throw std::invalid_argument("depth image type " + cv::typeToString(type) + " with " +
                                 std::to_string(depth.dims) + " dimensions: expected a 2-D 8UC1, 16UC1 or 32FC1 image");
+  checkMetres(depth);
   if (depth.cols != camera.width || depth.rows != camera.height)
   {
     std::ostringstream s;
@@ -375,6 +409,38 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 
   // Stage 3: the scan.
   scanStage<T>(depth, loop, binner, config_, stages.cliff_rule, threads, work, confidence_, out);
+}
+
+std::string describe(const FrameResult& r)
+{
+  const int type = r.depth.type();
+  const char* dtype = type == CV_8UC1 ? "uint8" : type == CV_16UC1 ? "uint16" : "float32";  // numpy's names
+  int finite = 0;
+  float nearest = std::numeric_limits<float>::infinity();
+  for (const float v : r.scan.ranges)
+    if (std::isfinite(v))
+    {
+      ++finite;
+      nearest = std::min(nearest, v);
+    }
+  int cliffs = 0;
+  for (const float v : r.cliff.ranges)
+    cliffs += std::isfinite(v) ? 1 : 0;
+  double total = 0.0;
+  for (const std::uint64_t n : r.counts)
+    total += static_cast<double>(n);
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s << "Result(" << r.depth.cols << "x" << r.depth.rows << " " << dtype << ", " << r.scan.ranges.size()
+    << " beams: " << finite << " finite";
+  if (finite)
+    s << std::setprecision(2) << ", nearest " << nearest << " m";
+  s << ", " << cliffs << " cliff; pixels";
+  for (int k = 0; k < kNumLabels; ++k)
+    s << " " << kLabelNames[k] << " " << std::setprecision(1)
+      << (total > 0 ? 100.0 * static_cast<double>(r.counts[k]) / total : 0.0) << " %";
+  s << "; " << std::setprecision(3) << r.times.total << " ms)";
+  return s.str();
 }
 
 }  // namespace kinect_pipeline

@@ -1,0 +1,159 @@
+// Binding of the codecs: depth images and camera intrinsics as messages carry them (depth_image.h), float metres
+// in an encoding (encode_depth), and compressedDepth (compressed_depth.h).
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include "arrays.h"
+#include "bind.h"
+#include "kinect_pipeline/io/compressed_depth.h"
+#include "kinect_pipeline/io/depth_image.h"
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/tools/synthetic.h"
+
+namespace kinect_pipeline::python
+{
+namespace
+{
+
+void bindMessages(py::module_& m)
+{
+  m.def("is_supported_depth_encoding", &isSupportedDepthEncoding, py::arg("encoding"),
+        "True for the depth encodings the pipeline reads: 8UC1, mono8, 16UC1, mono16, 32FC1.");
+  m.def(
+      "depth_from_buffer",
+      [](const std::string& encoding, std::uint32_t width, std::uint32_t height, std::uint32_t step,
+         bool is_bigendian, const py::buffer& data) {
+        const py::buffer_info info = data.request();
+        ImageBuffer image{encoding, width, height, step, is_bigendian, static_cast<const std::uint8_t*>(info.ptr),
+                          static_cast<std::size_t>(info.size * info.itemsize)};
+        if (info.ndim != 1 && info.size > 0)
+          throw py::value_error("data: expected a flat buffer of bytes");
+        cv::Mat buffer;
+        return matToArray(depthFromBuffer(image, buffer));
+      },
+      py::arg("encoding"), py::arg("width"), py::arg("height"), py::arg("step"), py::arg("is_bigendian"),
+      py::arg("data"),
+      "A depth image from a sensor_msgs/Image's fields (data: bytes or a uint8 array) as a new 2-D array: uint8 "
+      "for 8UC1/mono8, uint16 for 16UC1/mono16 (mm), float32 for 32FC1 (m), in the host's byte order. ValueError "
+      "for another encoding, empty data, a step below width * pixel size or data shorter than step * height, "
+      "quoting the values (the ROS node's checks).");
+  m.def(
+      "camera_from_intrinsics",
+      [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id) {
+        std::array<double, 9> k{};
+        std::size_t n = 0;
+        for (const auto& v : K)
+        {
+          if (n == 9)
+            throw py::value_error("K: expected 9 values (row-major 3x3), got more");
+          k[n++] = py::cast<double>(v);
+        }
+        if (n != 9)
+          throw py::value_error("K: expected 9 values (row-major 3x3), got " + std::to_string(n));
+        return cameraFromIntrinsics(width, height, k, frame_id);
+      },
+      py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "",
+      "The camera of a sensor_msgs/CameraInfo's width, height and K (fx = K[0], fy = K[4], cx = K[2], cy = K[5]); "
+      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values (the ROS node's checks).");
+}
+
+void bindEncodeDepth(py::module_& m)
+{
+  m.def(
+      "encode_depth",
+      [](const py::object& metres, const std::string& encoding, double max_depth) {
+        py::object keep;
+        int type = 0;
+        cv::Mat m = asMat(metres, "metres", keep, &type);
+        if (type != CV_32FC1)
+          throw py::type_error("metres: expected a float32 array");
+        return matToArray(encodeDepth(m, cvTypeOf(encodingFromString(encoding)), max_depth));
+      },
+      py::arg("metres"), py::arg("encoding"), py::arg("max_depth") = 12.0,
+      "Float metres -> 8UC1 normalised / 16UC1 mm / 32FC1 (unknown -> 0, NaN kept for float).");
+}
+
+/** decode_compressed_depth's expected_shape (height, width) as a size; None: any size. */
+cv::Size expectedSize(const std::optional<std::pair<int, int>>& expected_shape)
+{
+  if (!expected_shape)
+    return cv::Size();
+  const auto [h, w] = *expected_shape;
+  if (h < 1 || w < 1)
+    throw py::value_error("expected_shape = (" + std::to_string(h) + ", " + std::to_string(w) +
+                          "): expected (height, width) of at least one pixel each, or None");
+  return cv::Size(w, h);
+}
+
+void bindCompressedDepth(py::module_& m)
+{
+  m.def(
+      "decode_compressed_depth",
+      [](const py::object& format, const py::object& data, std::optional<std::pair<int, int>> expected_shape) {
+        if (!py::isinstance<py::str>(format))
+          throw py::type_error("format: " + typeName(format) + ": expected a str such as '16UC1; compressedDepth png'");
+        const std::string f = format.cast<std::string>();
+        const cv::Size expected = expectedSize(expected_shape);
+        py::object keep;
+        const py::buffer_info bytes = asBytes(data, "data", keep);
+        cv::Mat depth;
+        {
+          py::gil_scoped_release release;
+          depth = decodeCompressedDepth(f, static_cast<const std::uint8_t*>(bytes.ptr),
+                                        static_cast<std::size_t>(bytes.size), expected);
+        }
+        return matToArray(depth);
+      },
+      py::arg("format"), py::arg("data"), py::arg("expected_shape") = py::none(),
+      "A compressedDepth CompressedImage (its format and data: bytes or a uint8 array) as a depth image: uint16 [mm, "
+      "0 unknown] for 16UC1, float32 [m, NaN unknown] for 32FC1. Formats: '<16UC1|32FC1>; compressedDepth [png|rvl]'. "
+      "expected_shape (height, width) refuses other sizes. Raises ValueError naming what is wrong with the payload.");
+  const CompressedDepthOptions defaults;
+  m.def(
+      "encode_compressed_depth",
+      [](const py::object& depth, const std::string& codec, double depth_max, double depth_quantization,
+         int png_level) {
+        if (py::isinstance<py::array>(depth))
+        {
+          py::dtype dt = py::reinterpret_borrow<py::array>(depth).dtype();
+          if (cvTypeOf(dt) != CV_16UC1 && cvTypeOf(dt) != CV_32FC1)
+            throw py::type_error("depth: dtype " + std::string(py::str(dt)) + ": expected uint16 (mm) or float32 (m)");
+        }
+        py::object keep;
+        const cv::Mat m = asMat(depth, "depth", keep);
+        CompressedDepthOptions o;
+        o.codec = depthCodecFromString(codec);
+        o.depth_max = depth_max;
+        o.depth_quantization = depth_quantization;
+        o.png_level = png_level;
+        CompressedDepth c;
+        {
+          py::gil_scoped_release release;
+          c = encodeCompressedDepth(m, o);
+        }
+        return py::make_tuple(c.format, py::bytes(reinterpret_cast<const char*>(c.data.data()), c.data.size()));
+      },
+      py::arg("depth"), py::arg("codec") = toString(defaults.codec), py::arg("depth_max") = defaults.depth_max,
+      py::arg("depth_quantization") = defaults.depth_quantization, py::arg("png_level") = defaults.png_level,
+      "(format, data) of a compressedDepth CompressedImage, as compressed_depth_image_transport writes it: a "
+      "uint16 [mm] or float32 [m] image, codec 'png' or 'rvl'; pixels beyond depth_max [m] become 0 (unknown); "
+      "float32 is stored as 16-bit inverse depth with depthQuantA = z0 (z0 + 1), z0 = depth_quantization.");
+}
+
+}  // namespace
+
+void bindCodecs(py::module_& m)
+{
+  bindMessages(m);
+  bindEncodeDepth(m);
+  bindCompressedDepth(m);
+}
+
+}  // namespace kinect_pipeline::python
