@@ -217,10 +217,10 @@ def add_stereo_artefacts(
     focal_baseline: float = 30.85,
     subpixel: float = 0.08,
     bias: float = 0.12,
-    speckle: float = 0.002,
-    smear_rows: int = 6,
+    speckle: float = 0.0002,
+    smear_rows: int = 4,
     smear_jump: float = 0.15,
-    smear: float = 0.5,
+    smear: float = 0.2,
     max_range: float = 10.0,
     dropout: float = 0.01,
 ) -> FloatArray: ...

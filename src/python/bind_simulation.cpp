@@ -119,8 +119,8 @@ void bindNoise(py::module_& m)
         return out;
       },
       py::arg("depth"), py::arg("seed"), py::arg("focal_baseline") = 617.0 * 0.05, py::arg("subpixel") = 0.08,
-      py::arg("bias") = 0.12, py::arg("speckle") = 0.002, py::arg("smear_rows") = 6, py::arg("smear_jump") = 0.15,
-      py::arg("smear") = 0.5, py::arg("max_range") = 10.0, py::arg("dropout") = 0.01,
+      py::arg("bias") = 0.12, py::arg("speckle") = 0.0002, py::arg("smear_rows") = 4, py::arg("smear_jump") = 0.15,
+      py::arg("smear") = 0.2, py::arg("max_range") = 10.0, py::arg("dropout") = 0.01,
       "Copy of a float32 depth [m] with an active stereo camera's artefacts (RealSense-like): disparity noise "
       "(subpixel [px]) and offset (bias [px]), wrong matches in blobs (speckle), the matching window's smear "
       "(smear_rows above a pixel, smear_jump [m], probability smear), dropouts and nothing beyond max_range [m].");

@@ -232,14 +232,14 @@ void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range, doubl
 
 namespace
 {
-/** The farthest depth within smear_rows above (u, v) that lies more than smear_jump beyond z; z if none. */
-float smearSource(const cv::Mat& src, int u, int v, float z, const StereoArtefacts& a)
+/** The farthest depth within reach rows above (u, v) that lies more than smear_jump beyond z; z if none. */
+float smearSource(const cv::Mat& src, int u, int v, float z, int reach, double smear_jump)
 {
   float far = z;
-  for (int k = 1; k <= a.smear_rows && v - k >= 0; ++k)
+  for (int k = 1; k <= reach && v - k >= 0; ++k)
   {
     const float n = src.at<float>(v - k, u);
-    if (std::isfinite(n) && n - z > a.smear_jump && n > far)
+    if (std::isfinite(n) && n - z > smear_jump && n > far)
       far = n;
   }
   return far;
@@ -257,18 +257,20 @@ void addStereoArtefacts(cv::Mat& depth, std::uint64_t seed, const StereoArtefact
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  // The matching window's reach per column: a coherent band, not salt and pepper (0 where it does not smear).
+  std::vector<int> reach(depth.cols);
+  for (int& r : reach)
+    r = uniform(rng) < a.smear ? static_cast<int>(uniform(rng) * (a.smear_rows + 1)) : 0;
   const cv::Mat src = depth.clone();
   const float inf = std::numeric_limits<float>::infinity();
   for (int v = 0; v < depth.rows; ++v)
     for (int u = 0; u < depth.cols; ++u)
     {
-      const double n = normal(rng), p = uniform(rng), drop = uniform(rng);
+      const double n = normal(rng), drop = uniform(rng);
       float z = src.at<float>(v, u);
       if (!std::isfinite(z))
         continue;
-      const float far = smearSource(src, u, v, z, a);
-      if (far > z && p < a.smear)
-        z = far;
+      z = smearSource(src, u, v, z, reach[u], a.smear_jump);
       const double disparity = a.focal_baseline / z - a.bias + a.subpixel * n;
       const double out = disparity > 0.0 ? a.focal_baseline / disparity : inf;
       depth.at<float>(v, u) = drop < a.dropout || !(out <= a.max_range) ? inf : static_cast<float>(out);

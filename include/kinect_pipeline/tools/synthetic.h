@@ -91,19 +91,20 @@ struct StereoArtefacts
   double focal_baseline = 617.0 * 0.050;  ///< fx [px] times the stereo baseline [m]: disparity = this / depth
   double subpixel = 0.08;                 ///< disparity noise, one sigma [px]
   double bias = 0.12;                     ///< disparity offset [px]: a depth bias of depth^2 * bias / focal_baseline
-  double speckle = 0.002;                 ///< fraction of pixels replaced by a wrong match (a 2x2 blob each)
-  int smear_rows = 6;                     ///< the matching window's reach above a pixel [rows]
-  double smear_jump = 0.15;               ///< a farther surface within reach by more than this [m] may win the match
-  double smear = 0.5;                     ///< probability that it does (flying pixels; the floor before a wall)
+  double speckle = 0.0002;                ///< fraction of pixels replaced by a wrong match (a 2x2 blob each)
+  int smear_rows = 4;                     ///< the matching window's largest reach above a pixel [rows]
+  double smear_jump = 0.15;               ///< a farther surface within reach by more than this [m] wins the match
+  double smear = 0.2;                     ///< fraction of columns that smear (each with a reach of 0..smear_rows)
   double max_range = 10.0;                ///< no depth beyond [m]
   double dropout = 0.01;                  ///< fraction of pixels without depth
 };
 /**
  * @brief Active-stereo artefacts in place, seeded: Gaussian noise of the disparity (so the depth noise grows with
  *        the square of the depth), a disparity offset (a bias growing with the square of the depth), wrong matches
- *        in small blobs, dropouts, and the matching window's smear: a pixel whose window reaches a surface farther
- *        by more than smear_jump (the floor just before a wall's base, an object's silhouette) takes that surface's
- *        depth with probability smear. Unknown pixels (+Inf) stay unknown.
+ *        in small blobs, dropouts, and the matching window's smear: in a fraction smear of the columns, a pixel
+ *        whose window reaches (a random 0..smear_rows rows per column) a surface farther by more than smear_jump
+ *        (the floor just before a wall's base, an object's silhouette) takes that surface's depth. Unknown pixels
+ *        (+Inf) stay unknown.
  * @param depth CV_32F metres
  */
 void addStereoArtefacts(cv::Mat& depth, std::uint64_t seed, const StereoArtefacts& a = StereoArtefacts());

@@ -104,7 +104,7 @@ def person(x: float, y: float) -> tuple[Box, ...]:
     return tuple(out)
 
 
-def people_scene(seed: int = 0, count: int = 6, near: float = 1.2, far: float = 2.0) -> Scene:
+def people_scene(seed: int = 0, count: int = 6, near: float = 1.2, far: float = 2.0, spacing: float = 0.55) -> Scene:
     """``count`` people standing ``near``..``far`` metres ahead across the view (seeded), and a far wall: the legs'
     lowest pixels and the feet stand in the floor band, and little floor shows between them."""
     rng = np.random.default_rng(seed)
@@ -112,7 +112,7 @@ def people_scene(seed: int = 0, count: int = 6, near: float = 1.2, far: float = 
     names: list[str] = []
     for i in range(count):
         x = float(rng.uniform(near, far))
-        y = float((i - (count - 1) / 2) * 0.55 + rng.uniform(-0.1, 0.1))
+        y = float((i - (count - 1) / 2) * spacing + rng.uniform(-0.1, 0.1))
         part = person(x, y)
         boxes += part
         names += [f"person {i + 1}"] * len(part)
