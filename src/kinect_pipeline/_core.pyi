@@ -239,6 +239,10 @@ def calibrate_from_floor(
 def kinect_sigma(z: float, sigma0: float = 0.0015, k: float = 0.0019) -> float: ...  # type: ignore[overload-overlap]
 @overload
 def kinect_sigma(z: npt.ArrayLike, sigma0: float = 0.0015, k: float = 0.0019) -> npt.NDArray[np.float64]: ...
+@overload
+def stereo_sigma(z: float) -> float: ...  # type: ignore[overload-overlap]
+@overload
+def stereo_sigma(z: npt.ArrayLike) -> npt.NDArray[np.float64]: ...
 def encode_depth(metres: FloatArray, encoding: str, max_depth: float = 12.0) -> Depth: ...
 def decode_compressed_depth(
     format: str, data: bytes | npt.NDArray[np.uint8], expected_shape: tuple[int, int] | None = None

@@ -125,6 +125,10 @@ void bindNoise(py::module_& m)
       "(subpixel [px]) and offset (bias [px]), wrong matches in blobs (speckle), the matching window's smear "
       "(smear_rows above a pixel, smear_jump [m], probability smear), dropouts and nothing beyond max_range [m].");
   m.def(
+      "stereo_sigma", py::vectorize([](double z) { return stereoSigma(z); }), py::arg("z"),
+      "Depth noise of add_stereo_artefacts' defaults [m] at depth z [m]: z^2 subpixel / focal_baseline "
+      "(numpy-vectorised).");
+  m.def(
       "kinect_sigma", py::vectorize([](double z, double sigma0, double k) { return kinectSigma(z, sigma0, k); }),
       py::arg("z"), py::arg("sigma0") = 0.0015, py::arg("k") = 0.0019,
       "Depth noise of the Kinect v2 model [m] at depth z [m] (numpy-vectorised).");

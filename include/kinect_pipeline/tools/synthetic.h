@@ -98,6 +98,11 @@ struct StereoArtefacts
   double max_range = 10.0;                ///< no depth beyond [m]
   double dropout = 0.01;                  ///< fraction of pixels without depth
 };
+/** @return the depth noise of addStereoArtefacts() at depth @p z [m]: z^2 subpixel / focal_baseline [m]. */
+inline double stereoSigma(double z, const StereoArtefacts& a = StereoArtefacts())
+{
+  return z * z * a.subpixel / a.focal_baseline;
+}
 /**
  * @brief Active-stereo artefacts in place, seeded: Gaussian noise of the disparity (so the depth noise grows with
  *        the square of the depth), a disparity offset (a bias growing with the square of the depth), wrong matches

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -26,7 +27,9 @@ class FrameQuality:
         return {k: float(v) for k, v in asdict(self).items()}
 
 
-def phantom_beams(ranges: np.ndarray, real: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def phantom_beams(
+    ranges: np.ndarray, real: np.ndarray, sigma: Callable[[np.ndarray], np.ndarray] = _core.kinect_sigma
+) -> tuple[np.ndarray, np.ndarray]:
     """Phantom beams against ``real`` (the true nearest range per beam, +Inf none): finite and shorter than the
     nearest real range within one beam either side by more than 5 cm (first mask), and by more than 5 cm + 4 sigma
     of the sensor's noise at that range (second: the goal's definition; a min over many noisy pixels lies about
@@ -36,8 +39,8 @@ def phantom_beams(ranges: np.ndarray, real: np.ndarray) -> tuple[np.ndarray, np.
     r = np.asarray(ranges, np.float64)
     fin = np.isfinite(r)
     # horizontal range <= depth: sigma(range) is the smaller, stricter margin
-    sigma = _core.kinect_sigma(np.where(np.isfinite(real), real, 0.0))
-    return fin & (r < real - 0.05), fin & (r < real - 0.05 - 4.0 * sigma)
+    s = sigma(np.where(np.isfinite(real), real, 0.0))
+    return fin & (r < real - 0.05), fin & (r < real - 0.05 - 4.0 * s)
 
 
 def missed_beams(ranges: np.ndarray, real: np.ndarray) -> np.ndarray:
@@ -52,9 +55,11 @@ def frame_quality(
     frame: Frame,
     ceiling_height: float = 2.0,
     floor_radius: float = 6.0,
+    sigma: Callable[[np.ndarray], np.ndarray] = _core.kinect_sigma,
 ) -> FrameQuality:
     """Scores a processed frame. A phantom beam is one shorter than the nearest real surface (any object,
-    the floor included, within one beam either side) by more than 5 cm + 4 sigma of the sensor's noise."""
+    the floor included, within one beam either side) by more than 5 cm + 4 sigma of the sensor's noise (``sigma``
+    of the depth [m]: the Kinect v2 model by default, ``_core.stereo_sigma`` for stereo frames)."""
     t = frame.truth
     obj, height, rng = t["object"], t["height"], t["range"]
     labels = result.labels
@@ -74,7 +79,7 @@ def frame_quality(
         floor_removed=frac(floor, removed),
         obstacles_kept=frac(obstacles, ~removed),
         above_ceiling_removed=frac(above, removed),
-        phantom_beams=float(phantom_beams(result.ranges, real)[1].sum() / beams),
+        phantom_beams=float(phantom_beams(result.ranges, real, sigma)[1].sum() / beams),
         floor_pixels=int(floor.sum()),
         obstacle_pixels=int(obstacles.sum()),
         above_ceiling_pixels=int(above.sum()),
