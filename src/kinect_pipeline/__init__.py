@@ -33,7 +33,7 @@ from ._core import (
 #: Values of ``Result.labels`` by name (the core's list).
 LABELS: dict[str, int] = dict(_core.LABELS)
 
-#: The core's table of Config fields (config_fields.h): name, kind, min, max, unit, doc, choices, default.
+#: The core's table of Config fields (model/config_table.h): name, kind, min, max, unit, doc, choices, default.
 CONFIG_FIELDS: list[dict[str, Any]] = [dict(f) for f in _core.CONFIG_FIELDS]
 
 #: Kinect v2 depth camera (512x424, 70.6 x 60 deg, as in the thesis).

@@ -6,7 +6,7 @@
 
 namespace kinect_pipeline::python
 {
-/** Config (every field from config_fields.h), CONFIG_FIELDS, the threshold curve and the sensor presets. */
+/** Config (every field from model/config_table.h), CONFIG_FIELDS, the threshold curve and the sensor presets. */
 void bindConfig(pybind11::module_& m);
 /** Camera, SensorPose, PoseCorrection, FloorFit, Result, Pipeline, LABELS and the pose / tf functions. */
 void bindPipeline(pybind11::module_& m);

@@ -1,4 +1,4 @@
-// Binding of the config table (config_fields.h: every field an attribute), the threshold curve and the sensor
+// Binding of the config table (model/config_table.h: every field an attribute), the threshold curve and the sensor
 // presets.
 #include <sstream>
 #include <stdexcept>
@@ -218,7 +218,7 @@ void bindConfigClass(py::module_& m)
                std::string(py::repr(fieldValue(c, f)));
         return s + ")";
       });
-  // Every field an attribute, from the one table (config_fields.h), with its docstring.
+  // Every field an attribute, from the one table (model/config_table.h), with its docstring.
   for (const ConfigField& f : configFields())
   {
     const ConfigField* row = &f;

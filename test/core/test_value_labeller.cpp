@@ -1,8 +1,8 @@
-// The labelling by value thresholds (src/core/stages/labels/by_value.h, private to the core) against the reference labeller,
-// the rule pixel by pixel (stages/labels/per_pixel.h), row by row: wherever it takes a row, the same labels, cleaned depths,
-// counts and rescue, bit for bit. Rows at every rise from steeply down to up, whose values crowd around the floor
-// band's two edges and the ceiling plane, with the rescue's raw values above the opened ones, for curves the proof
-// holds for, one whose 1 cm cells make d - t dip (windowed), and one too steep for it; 8 and 16 bits.
+// The labelling by value thresholds (src/core/stages/labels/by_value.h, private to the core) against the reference
+// labeller, the rule pixel by pixel (stages/labels/per_pixel.h), row by row: wherever it takes a row, the same labels,
+// cleaned depths, counts and rescue, bit for bit. Rows at every rise from steeply down to up, whose values crowd around
+// the floor band's two edges and the ceiling plane, with the rescue's raw values above the opened ones, for curves the
+// proof holds for, one whose 1 cm cells make d - t dip (windowed), and one too steep for it; 8 and 16 bits.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -65,7 +65,7 @@ void checkRows(const std::vector<CurvePoint>& curve, double max_depth, float flo
     const float rise = static_cast<float>(x < 0.75 ? -1.2 * std::pow(1.0 - x / 0.75, 3.0) - 1e-4 : (x - 0.75) * 1.6);
     row[0] = rise;
     const RuleTerms f{{scale, floor_h, ceil_h}, col.data(), row.data(), &lut};
-    const ValueLabeller<T> value(f, terms);
+    const ValueLabeller<T> value(f, terms, true);
     for (int e = 0; e < 3; ++e)  // the near edge, the far edge, and the ceiling plane or the floor itself
     {
       const double floor_at = rise < 0.0f ? floor_h / -rise : 0.0;

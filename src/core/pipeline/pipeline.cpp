@@ -1,9 +1,9 @@
 // Pipeline (pipeline.h): a frame's input checks and pose, then its stages. Design notes: docs/core_design.md, and
 // docs/floor_refinement.md for the floor fit that starts each frame.
-//   stage 1  stages/opening/opening.h         unknown pixels to no return, the opening
-//   stage 2  the row loop here, each row: labels (stages/labels/by_value.h, stages/labels/per_pixel.h by the rule of stages/labels/rule.h),
-//            its below-floor and kept pixels into the thread's beams (stages/scan/binning.h)
-//   stage 3  stages/scan/output.h     the threads' bins merged, surface_band, the cliff scan, REP 117, confidence
+//   stage 1  stages/opening/opening.h  unknown pixels to no return, the opening
+//   stage 2  the row loop here, each row: labels (stages/labels/by_value.h, stages/labels/per_pixel.h by the rule
+//            of stages/labels/rule.h), its below-floor and kept pixels into the thread's beams (stages/scan/binning.h)
+//   stage 3  stages/scan/output.h      the threads' bins merged, surface_band, the cliff scan, REP 117, confidence
 #include "kinect_pipeline/pipeline.h"
 
 #include <algorithm>
@@ -24,20 +24,6 @@ namespace kinect_pipeline
 {
 namespace detail
 {
-namespace
-{
-ReferencePaths g_reference_paths;
-}  // namespace
-
-ReferencePaths setReferencePaths(const ReferencePaths& paths)
-{
-  const ReferencePaths was = g_reference_paths;
-  g_reference_paths = paths;
-  return was;
-}
-
-ReferencePaths referencePaths() { return g_reference_paths; }
-
 namespace
 {
 /** What the row loop does with each row, set up once per frame. */
@@ -275,7 +261,8 @@ void checkPose(const SensorPose& pose, double ceiling_height)
 }  // namespace
 }  // namespace detail
 
-Pipeline::Pipeline(const Camera& camera, const Config& config) : work_(std::make_unique<detail::FrameWork>())
+Pipeline::Pipeline(const Camera& camera, const Config& config, const ReferencePaths& paths)
+    : paths_(paths), work_(std::make_unique<detail::FrameWork>())
 {
   camera.validate();
   config.validate();
@@ -377,19 +364,18 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   FrameWork& work = *work_;
   const int threads = config_.num_threads > 0 ? config_.num_threads : defaultThreads();
   work.prepare(threads, camera_.width, camera_.height, projector_.beams());
-  const ReferencePaths ref = referencePaths();
   const float scale = depthScale<T>(config_.max_depth);
 
   // Stage 1: the opening where it is done on the whole image (OpenCV's; else row by row in stage 2).
   const auto t1 = Clock::now();
-  Opening<T> opening(config_, ref.opening, work.opening);
+  Opening<T> opening(config_, paths_, work.opening);
   opening.openWhole(depth, threads);
 
   // Stage 2: the rule's terms at this pose, the labelling, the binning of the projection (chosen here, once).
   const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset()}, planes_.colTerm().data(),
                         planes_.rowTerm().data(), &lut_};
-  const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, !ref.labels);
-  const RowBinner binner(projector_, camera_.width, ref.binning);
+  const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, paths_);
+  const RowBinner binner(projector_, camera_.width, paths_);
   const RowStages<T> stages{opening,
                             labeller,
                             binner,
