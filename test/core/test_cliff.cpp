@@ -11,6 +11,8 @@
 
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/tools/synthetic.h"
+#include "kinect_pipeline/model/sensor_model.h"
+#include "stages/scan/cliff_rule.h"
 #include "test_scenes.h"
 #include "test_util.h"
 
@@ -53,14 +55,18 @@ struct Truth
   std::vector<int> pixels;      // below-floor pixels per beam
 };
 
-// The evidence rule, written out slowly: the largest depth (1 mm steps) where a drop of min_drop seen from height
-// h puts the lower level more than t(d) beyond the floor.
+// The evidence rule, written out slowly: the far end of the first range of depths (1 mm steps) where a drop of
+// min_drop seen from height h puts the lower level more than t(d) beyond the floor.
 double cliffMaxDepth(const Config& cfg, double h)
 {
   double best = 0.0;
   for (double d = 0.001; d <= 30.0; d += 0.001)
+  {
     if (d * cfg.cliff_min_drop / (h + cfg.cliff_min_drop) >= evaluateCurve(cfg.threshold_curve, d))
       best = d;
+    else if (best > 0.0)
+      break;
+  }
   return best;
 }
 
@@ -134,6 +140,30 @@ void checkLabelsAgainstTruth(const cv::Mat& labels, const Rendering& gt)
   EXPECT_EQ(stray, 0) << "of " << below << " below-floor pixels";
   ASSERT_GT(hole, 200);
   EXPECT_GE(found, 0.97 * hole) << "of " << hole << " hole-bottom pixels away from the rim";
+}
+
+TEST(CliffRule, MaxDepthIsTheFirstRangeWhereTheDropIsSeen)
+{
+  // CliffRule::at's exact search over the curve's segments against the 1 mm search, for the presets' curves and
+  // heights from a low robot to a Segway; 0 turns the rule off.
+  for (const char* model : {"kinect_v2", "kinect_v1", "realsense_d4xx", "azure_kinect", "orbbec_astra"})
+    for (double h : {0.3, 0.63, 1.1})
+      for (double drop : {0.03, 0.05, 0.15})
+      {
+        Config cfg;
+        cfg.threshold_curve = sensorModel(model).thresholdCurve();
+        cfg.cliff_min_drop = drop;
+        const detail::CliffRule rule = detail::CliffRule::at(cfg, static_cast<float>(h));
+        EXPECT_NEAR(rule.max_depth, cliffMaxDepth(cfg, h), 0.002) << model << " h " << h << " drop " << drop;
+      }
+  Config off;
+  off.cliff_min_drop = 0.0;
+  EXPECT_TRUE(std::isinf(detail::CliffRule::at(off, 1.1f).max_depth));
+  EXPECT_TRUE(detail::CliffRule::at(off, 1.1f).evidence(20.0f, -0.001f));
+  // The default curve at a Segway's height: a 5 cm drop is told from the noise up to about 5.4 m, not again beyond
+  // the curve's last point (where its threshold stays constant).
+  Config segway;
+  EXPECT_NEAR(detail::CliffRule::at(segway, 1.1f).max_depth, 5.4, 0.3);
 }
 
 struct CliffCase

@@ -5,7 +5,6 @@ bounds; real stairs and holes still found. Rendered frames with a stereo camera'
 
 from __future__ import annotations
 
-import glob
 import math
 import os
 
@@ -16,8 +15,19 @@ import pytest
 import kinect_pipeline as kp
 from kinect_pipeline import _core
 from kinect_pipeline.evaluation.metrics import frame_quality
+from kinect_pipeline.evaluation.real_floors import (
+    KINECT,
+    ROBOT_SCENES,
+    RS_CAM,
+    RS_HEIGHT,
+    RS_PITCH,
+    RS_ROLL,
+    people_robot,
+    real_frames_false_cliffs,
+    shared_realsense_frames,
+    stereo_robot,
+)
 from kinect_pipeline.simulation.scenes import (
-    Scene,
     furniture_scene,
     hole_scene,
     lab_scene,
@@ -28,11 +38,6 @@ from kinect_pipeline.simulation.scenes import (
 
 DEG = math.pi / 180
 REAL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "real")
-RS_K = (617.25, 617.549, 317.392, 245.980)  # realsense_lowcam's cam_params_realsense.json
-RS_CAM = kp.Camera(640, 480, *RS_K)
-KINECT = kp.Camera.from_fov(512, 424, math.radians(70.6), math.radians(60.0))
-# The issue's robot: a RealSense 0.63 m high, 20 deg down, 10 deg of roll.
-RS_HEIGHT, RS_PITCH, RS_ROLL = 0.63, 20 * DEG, 10 * DEG
 
 
 def outlier_rate(metres: np.ndarray) -> float:
@@ -44,10 +49,10 @@ def outlier_rate(metres: np.ndarray) -> float:
 
 
 def real_realsense() -> list[np.ndarray]:
-    files = sorted(glob.glob(os.path.join(REAL, "realsense_lowcam", "depth", "*.png")))
-    if not files:
+    frames = shared_realsense_frames(os.path.join(REAL, "realsense_lowcam"))
+    if not frames:
         pytest.fail(f"the shared RealSense frames are missing under {REAL}")
-    return [cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in files]
+    return frames
 
 
 def test_rendered_stereo_frames_look_like_the_real_realsense_frames() -> None:
@@ -72,67 +77,23 @@ def test_rendered_stereo_frames_look_like_the_real_realsense_frames() -> None:
     assert 0.04 < bias < 0.1
 
 
-def robot_stereo_run(scene: Scene, told: tuple[float, float, float], frames: int = 20, encoding: str = "16UC1"):
-    """The issue's RealSense robot driving (rocking +-1 deg) through a rendered room with stereo artefacts, told the
-    mount off by ``told`` (m, deg, deg) with the sensor's preset; the worst frame's scores."""
-    cfg = kp.Config(
-        sensor_model="realsense_d4xx",
-        sensor_height=RS_HEIGHT + told[0],
-        sensor_pitch=RS_PITCH + told[1] * DEG,
-        sensor_roll=RS_ROLL + told[2] * DEG,
-        ceiling_height=2.0,
-    )
-    pipe = kp.Pipeline(RS_CAM, cfg)
-    worst = {"phantom": 0.0, "cliff": 0.0, "floor": 1.0}
-    for i in range(frames):
-        rock = 1.0 * DEG * math.sin(2 * math.pi * i / 17)
-        fr = render_frame(RS_CAM, scene, RS_HEIGHT, RS_PITCH + rock, RS_ROLL + rock, encoding, seed=i, stereo=True)
-        res = pipe.process(fr.depth, rock, rock, stamp=i / 10)
-        q = frame_quality(res, fr, floor_radius=4.0, sigma=_core.stereo_sigma)
-        worst["phantom"] = max(worst["phantom"], q.phantom_beams)
-        worst["cliff"] = max(worst["cliff"], float(np.isfinite(res.cliff_ranges).mean()))
-        worst["floor"] = min(worst["floor"], q.floor_removed)
-    return worst
-
-
 @pytest.mark.parametrize("scene", ["furniture", "lab", "people"])
 @pytest.mark.parametrize("told", [(0.0, 0.0, 0.0), (0.05, 1.0, -1.0), (-0.05, -1.0, 1.0)])
 def test_a_stereo_robot_sees_no_false_cliff_and_removes_the_floor(scene: str, told: tuple[float, float, float]) -> None:
-    s = {"furniture": furniture_scene(), "lab": lab_scene(), "people": people_scene(count=8, spacing=0.3)}[scene]
-    worst = robot_stereo_run(s, told)
-    assert worst["cliff"] <= 0.005, worst
-    assert worst["floor"] >= 0.995, worst
-    assert worst["phantom"] <= 0.01, worst
-
-
-def people_run(refine: bool, exact: bool, encoding: str, tilt: float = 5 * DEG, frames: int = 45):
-    """Eight people 1.2-2 m ahead, 30 cm apart, a Kinect v2 at 1.1 m on a base pitching +-6 deg, told the mount
-    0.6 deg / 4 cm / 0.5 deg off (or exactly); the worst frame's scores."""
-    off = (0.0, 0.0, 0.0) if exact else (0.04, 0.6 * DEG, 0.5 * DEG)
-    cfg = kp.Config(sensor_height=1.1 + off[0], sensor_pitch=tilt + off[1], sensor_roll=off[2], refine_floor=refine)
-    pipe = kp.Pipeline(KINECT, cfg)
-    worst = {"phantom": 0.0, "cliff": 0.0, "floor": 1.0}
-    for i in range(frames):
-        bp = 6 * DEG * math.sin(2 * math.pi * i / 15)
-        fr = render_frame(KINECT, people_scene(seed=i, count=8, spacing=0.3), 1.1, tilt + bp, 0.0, encoding, seed=i)
-        res = pipe.process(fr.depth, bp, 0.0, stamp=i / 30)
-        q = frame_quality(res, fr, floor_radius=4.0)
-        worst["phantom"] = max(worst["phantom"], q.phantom_beams)
-        worst["cliff"] = max(worst["cliff"], float(np.isfinite(res.cliff_ranges).mean()))
-        worst["floor"] = min(worst["floor"], q.floor_removed)
-    return worst
+    worst = stereo_robot(ROBOT_SCENES[scene](), told)
+    assert worst.cliff <= 0.005 and worst.floor >= 0.995 and worst.phantom <= 0.01, worst
 
 
 @pytest.mark.parametrize("encoding", ["8UC1", "16UC1"])
 def test_people_around_a_pitching_robot(encoding: str) -> None:
-    worst = people_run(refine=True, exact=False, encoding=encoding)
-    assert worst["phantom"] <= 0.005 and worst["cliff"] == 0.0 and worst["floor"] >= 0.99, worst
+    worst = people_robot(refine=True, exact=False, encoding=encoding)
+    assert worst.phantom <= 0.005 and worst.cliff == 0.0 and worst.floor >= 0.99, worst
     # Told the exact pose, the refinement is never worse than without it.
-    exact = people_run(refine=True, exact=True, encoding=encoding)
-    plain = people_run(refine=False, exact=True, encoding=encoding)
-    assert exact["phantom"] <= plain["phantom"] + 1e-9, (exact, plain)
-    assert exact["cliff"] <= plain["cliff"] + 1e-9, (exact, plain)
-    assert exact["floor"] >= plain["floor"] - 0.002, (exact, plain)
+    exact = people_robot(refine=True, exact=True, encoding=encoding)
+    plain = people_robot(refine=False, exact=True, encoding=encoding)
+    assert exact.phantom <= plain.phantom + 1e-9, (exact, plain)
+    assert exact.cliff <= plain.cliff + 1e-9, (exact, plain)
+    assert exact.floor >= plain.floor - 0.002, (exact, plain)
 
 
 def test_a_leg_in_the_floor_band_is_no_floor_candidate() -> None:
@@ -200,24 +161,10 @@ def test_real_stairs_and_holes_keep_their_beams(encoding: str) -> None:
 
 def test_real_realsense_frames_show_no_false_cliff() -> None:
     # The shared RealSense frames (a low handheld camera; objects on the floor, no hole, no stair), each told the
-    # floor calibrate fits in it, with the sensor's preset: no cliff beam where the fit explains the floor.
-    checked = 0
-    for depth in real_realsense():
-        metres = np.where(depth > 0, depth / 1000.0, np.inf).astype(np.float32)
-        fp = _core.calibrate_from_floor(metres, RS_CAM)
-        if not fp["found"] or fp["floor_fraction"] < 0.2:
-            continue  # calibrate's own rule: too little floor to trust the pose
-        cfg = kp.Config(
-            sensor_model="realsense_d4xx",
-            sensor_height=fp["height"],
-            sensor_pitch=fp["pitch"],
-            sensor_roll=fp["roll"],
-            ceiling_height=max(2.0, fp["height"] + 0.5),
-        )
-        res = kp.Pipeline(RS_CAM, cfg).process(depth)
-        assert np.isfinite(res.cliff_ranges).mean() <= 0.005, (checked, fp["height"], res)
-        checked += 1
-    assert checked >= 5
+    # floor calibrate fits in it (where calibrate trusts it), with the sensor's preset: no cliff beam.
+    cliffs = real_frames_false_cliffs(real_realsense())
+    assert len(cliffs) >= 5
+    assert max(cliffs) <= 0.005, cliffs
 
 
 def test_the_evidence_rule_can_be_turned_off() -> None:

@@ -38,8 +38,10 @@ struct CliffRule
   float max_depth = std::numeric_limits<float>::infinity();  ///< [m]
 
   /**
-   * The rule at a frame's height: max_depth, the largest depth up to max_range where d k >= t(d), k = min_drop /
-   * (floor_h + min_drop), exactly (t is piecewise linear, constant outside its control points: so is f = d k - t).
+   * The rule at a frame's height: max_depth, the far end of the first range of depths (from the sensor out, up to
+   * max_range) where d k >= t(d), k = min_drop / (floor_h + min_drop), exactly (t is piecewise linear, constant
+   * outside its control points: so is f = d k - t). Only the first: beyond a curve's last point its threshold stays
+   * constant while a real sensor's noise keeps growing.
    */
   static CliffRule at(const Config& config, float floor_h, double max_range = kSearchDepth)
   {
@@ -52,7 +54,7 @@ struct CliffRule
     const std::vector<CurvePoint>& curve = config.threshold_curve;
     std::vector<double> knots = {0.0};
     for (const CurvePoint& p : curve)
-      if (p.depth < max_range)
+      if (p.depth > 0.0 && p.depth < max_range)
         knots.push_back(p.depth);
     knots.push_back(max_range);
     double best = 0.0;
@@ -61,11 +63,19 @@ struct CliffRule
       const double d0 = knots[i], d1 = knots[i + 1];
       const double f0 = d0 * k - evaluateCurve(curve, d0), f1 = d1 * k - evaluateCurve(curve, d1);
       if (f1 >= 0.0)
-        best = d1;
+        best = d1;  // visible to the segment's end (entering the range here or already in it)
       else if (f0 >= 0.0)
-        best = std::max(best, d0 + f0 / (f0 - f1) * (d1 - d0));
+        return c.withMaxDepth(d0 + f0 / (f0 - f1) * (d1 - d0));  // leaving the range within the segment
+      else if (best > 0.0)
+        return c.withMaxDepth(best);  // left it at the segment's start
     }
-    c.max_depth = static_cast<float>(best);
+    return c.withMaxDepth(best);
+  }
+
+  CliffRule withMaxDepth(double d) const
+  {
+    CliffRule c = *this;
+    c.max_depth = static_cast<float>(d);
     return c;
   }
 
