@@ -173,7 +173,7 @@ def test_inputs_and_configurations_are_checked(recs: dict[str, Path], tmp_path: 
     bad.write_text("sensor_hieght: 1.0\n")
     with pytest.raises(FleetError, match=r"bad\.yaml: no Config field 'sensor_hieght'"):
         load_config(bad, {})
-    r = cli("fleet", str(recs["ros1"]), "-o", str(recs["sqlite3"] / "out"))
+    r = cli("fleet", str(recs["sqlite3"]), "-o", str(recs["sqlite3"] / "out"))
     assert r.returncode == 1 and "lies inside the input folder" in r.stderr
     r = cli("fleet", str(tmp_path / "missing.bag"), "-o", str(tmp_path / "o"), "--workers", "1", "--quiet")
     assert r.returncode == 1 and "missing.bag [default]: unreadable: " in r.stderr and "no such file" in r.stderr
