@@ -139,7 +139,7 @@ def input_identity(path: Path, checksum: bool = False) -> dict[str, Any]:
         h = hashlib.sha256()
         for f in files:
             with f.open("rb") as fh:
-                for block in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                while block := fh.read(1 << 20):
                     h.update(block)
         digest = h.hexdigest()
     return {"input_size": size, "input_mtime_ns": mtime, "input_sha256": digest}
@@ -273,7 +273,8 @@ class _Track:
         self.core_ms.append(float(res.times["total"]))
         fit = res.floor_fit
         self.reasons[fit.reason] += 1
-        self.learned.append((at, *map(float, fit.learned)))
+        lh, lp, lr = (float(v) for v in fit.learned)
+        self.learned.append((at, lh, lp, lr))
         r = np.asarray(res.ranges)
         self.beams += len(r)
         self.cliff += int(np.isfinite(res.cliff_ranges).sum()) if len(res.cliff_ranges) else 0
@@ -365,7 +366,8 @@ class _Damages:
     """Damage met while reading: raised unless ``skip_bad`` (then counted and named)."""
 
     def __init__(self, path: Path, skip_bad: bool) -> None:
-        self.path, self.skip_bad, self.lost, self.notes = path, skip_bad, 0, []
+        self.path, self.skip_bad, self.lost = path, skip_bad, 0
+        self.notes: list[str] = []
 
     def __call__(self, d: Damage) -> None:
         if not self.skip_bad:
@@ -516,7 +518,8 @@ def measure_recording(path: str, opts: FleetOptions, configs: list[tuple[str, di
     p = Path(path)
     events = _Events(path, opts.event_every)
     tracks = [_Track(name, cfg) for name, cfg in configs]
-    status, lost, notes, kind = "ok", 0, [], ""
+    status, lost, kind = "ok", 0, ""
+    notes: list[str] = []
     try:
         if not p.exists():
             raise FleetError(f"{p}: no such file or folder")
