@@ -30,7 +30,8 @@ from clitool import cli
 import kinect_pipeline as kp
 from kinect_pipeline.bag import write_sequence_bag
 from kinect_pipeline.bags import depth_array, open_bag
-from kinect_pipeline.fleet import EVENT_TOPIC, FleetError, find_recordings, load_config
+from kinect_pipeline.fleet import EVENT_TOPIC, FleetError, FleetOptions, find_recordings, load_config, measure_recording
+from kinect_pipeline.replay import ReplayOptions
 
 FRAMES = 6
 
@@ -134,6 +135,18 @@ def test_local_cluster_mixed_inputs_a_damaged_bag_and_a_rerun_that_does_nothing(
     os.utime(recs["ros1"], ns=(time.time_ns(), time.time_ns()))  # touched: done again, the rest skipped
     once_more = cli(*args, "--workers", "1", "--quiet")
     assert "1 done now" in once_more.stdout and "5 up to date" in once_more.stdout
+
+
+def test_a_task_in_this_process_skip_bad_measures_the_intact_part(recs: dict[str, Path]) -> None:
+    """The task itself, without Dask (no worker: no progress events): --skip-bad measures a cut bag's intact
+    frames and still says it is damaged; without it, nothing is measured."""
+    opts = FleetOptions(replay=ReplayOptions(skip_bad=True))
+    (row,) = measure_recording(str(recs["damaged"]), opts, [("default", {})])
+    assert row["status"].startswith("damaged: ") and row["damaged"] >= 1 and row["worker"] == ""
+    assert 0 < row["processed"] == row["frames"] < FRAMES
+    assert len(row["series"]) == row["processed"]
+    (row,) = measure_recording(str(recs["damaged"]), FleetOptions(), [("default", {})])
+    assert row["status"].startswith("damaged: ") and row["processed"] == 0
 
 
 def test_configurations_compared(recs: dict[str, Path], tmp_path: Path) -> None:
