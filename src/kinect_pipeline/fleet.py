@@ -11,6 +11,7 @@ import glob
 import hashlib
 import json
 import math
+import os
 import time
 import traceback
 from collections import Counter
@@ -67,6 +68,9 @@ LIST_SUFFIXES = (".txt", ".lst", ".list")  #: a file of these names lists record
 BAG_SUFFIXES = (".bag", ".mcap", ".db3")
 #: statuses a rerun takes as final (the input decides them); rows with others ("error", "lost") are done again
 FINAL = ("ok", "damaged", "unreadable")
+
+
+SPAWN_ENV, TRIM = "distributed.nanny.pre-spawn-environ", "MALLOC_TRIM_THRESHOLD_"
 
 
 class FleetError(ValueError):
@@ -537,6 +541,8 @@ def measure_recording(path: str, opts: FleetOptions, configs: list[tuple[str, di
         status = f"error: {type(exc).__name__}: {exc}"
         notes.append(traceback.format_exc(limit=3))
     events.frame(done=True)
+    if events.worker is not None and os.environ.get(TRIM):
+        notes.append(f"the worker runs with {TRIM}={os.environ[TRIM]} (a Dask nanny's default): frames ~2x slower")
     seconds = time.monotonic() - started
     rows = []
     for i, t in enumerate(tracks):
@@ -698,8 +704,6 @@ class _Progress:
 def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     """A Dask client: of the running cluster at ``scheduler`` (waiting for ``workers`` workers when given), or of
     a LocalCluster on this machine with ``workers`` processes (default: one per core), one thread each."""
-    import os
-
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -710,12 +714,18 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         if workers:
             client.wait_for_workers(workers, timeout=120)
         return client, None
+    import dask
+
     n = workers or os.cpu_count() or 1
     _core_first_on_path()
     try:
-        cluster = LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
-        )
+        # Dask's nannies start workers with MALLOC_TRIM_THRESHOLD_=65536, which turns off glibc's adaptive mmap
+        # threshold: every frame's buffers are then fresh pages, and a frame took twice as long (measured, see
+        # docs/performance.md#fleet). Unset for our workers.
+        with dask.config.set({f"{SPAWN_ENV}.{TRIM}": None}):
+            cluster = LocalCluster(
+                n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address="127.0.0.1:0"
+            )
     except RuntimeError as exc:
         raise FleetError(f"could not start a LocalCluster of {n} worker(s): {exc} (see the log above)") from exc
     return Client(cluster), cluster

@@ -67,7 +67,10 @@ def recs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         "mcap": d / "d.mcap",
     }
     for i, (kind, path) in enumerate(out.items()):
-        write_sequence_bag(path, frames=FRAMES, seed=10 + i, fmt="sqlite3" if kind == "sqlite3" else None)
+        # b.bag's tf states the mount 5 cm too high and 1 deg too far down: the floor refinement learns it
+        wrong = (0.05, math.radians(1.0), 0.0) if kind == "ros1_b" else (0.0, 0.0, 0.0)
+        fmt = "sqlite3" if kind == "sqlite3" else None
+        write_sequence_bag(path, frames=FRAMES, seed=10 + i, fmt=fmt, tf_error=wrong)
     data = out["ros1_b"].read_bytes()
     out["damaged"] = d / "damaged.bag"
     out["damaged"].write_bytes(data[: len(data) // 2])  # cut in the middle, as a recording whose disk filled up
@@ -116,12 +119,14 @@ def test_local_cluster_mixed_inputs_a_damaged_bag_and_a_rerun_that_does_nothing(
         assert 0 < float(rows[name]["phantom_proxy"]) <= 1  # the lab's low boxes lie under the LiDAR plane
     assert rows["e_frames"]["phantom_proxy"] == ""  # no LiDAR in a folder of frames
     assert rows["damaged.bag"]["status"].startswith("damaged: ") and "byte" in rows["damaged.bag"]["status"]
-    # the same frames as a bag and as a folder: the same scans, whatever the pose source says
-    assert rows["a.bag"]["fit_reasons"] and rows["e_frames"]["kind"] == "frames"
+    assert rows["e_frames"]["kind"] == "frames" and rows["a.bag"]["kind"] == "bag"
+    # a right tf: nothing learned; b.bag's wrong mount: a correction towards it, growing over the recording
+    assert float(rows["a.bag"]["learned_height_m"]) == 0 and float(rows["a.bag"]["drift_pitch_deg"]) == 0
+    assert float(rows["b.bag"]["learned_height_m"]) < -0.001 and float(rows["b.bag"]["drift_height_m"]) > 0.001
     doc = json.loads((out / "fleet.json").read_text())
     assert all(len(x["series"]) == FRAMES for x in doc["rows"] if x["status"] == "ok")
     page = (out / "index.html").read_text()
-    assert page.index("damaged.bag") < page.index("a.bag")  # not ok: first
+    assert page.index("damaged.bag") < page.index("b.bag") < page.index("a.bag")  # not ok, then the worst mount
     assert (out / "learned.png").stat().st_size > 0
     assert {k: sha(p) for k, p in recs.items()} == before, "an input changed"
 
