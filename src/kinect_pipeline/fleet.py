@@ -712,7 +712,12 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         except (OSError, TimeoutError) as exc:
             raise FleetError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there: {exc}") from exc
         if workers:
-            client.wait_for_workers(workers, timeout=120)
+            try:
+                client.wait_for_workers(workers, timeout=120)
+            except TimeoutError as exc:
+                have = len(client.scheduler_info()["workers"])
+                client.close()
+                raise FleetError(f"--workers {workers}: {have} worker(s) joined {scheduler} within 120 s") from exc
         return client, None
     import dask
 
