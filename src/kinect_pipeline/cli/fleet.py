@@ -36,14 +36,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="recordings: ROS 1 bags, rosbag2 folders or .mcap files, folders of depth frames; as paths, globs "
         "('rec/**/*.bag', quoted) or text files (.txt/.lst/.list) listing them one a line",
     )
-    p.add_argument("-o", "--output", metavar="OUT", help="folder of fleet.csv, fleet.json, index.html (made if new)")
+    p.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="folder of fleet.csv, fleet.json, index.html (made if new; default: none, required unless --bench)",
+    )
     p.add_argument(
         "--workers",
         type=int,
-        help="LocalCluster: worker processes (default: one per core); with --scheduler: wait until that many "
-        "workers are connected",
+        help="LocalCluster: worker processes [processes] (default: one per core); with --scheduler: wait until "
+        "that many workers are connected",
     )
-    p.add_argument("--scheduler", metavar="ADDRESS", help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786")
+    p.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster on this machine)",
+    )
     add_bag_topics(p)
     p.add_argument(
         "--pose-fallback",
@@ -51,34 +60,53 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default="static",
         help="frames without tf: the static pose of the configuration, or skip them",
     )
-    p.add_argument("--skip-bad", action="store_true", help="go on past damaged messages (counted in the row)")
-    p.add_argument("--lidar-topic", help="LaserScan for the phantom proxy (default: the bag's non-ground-truth scan)")
-    add_intrinsics(p, " of folders of frames (default: --sensor-model's typical ones)")
+    p.add_argument(
+        "--skip-bad",
+        action="store_true",
+        help="go on past damaged messages, counted in the row (default: such a recording is not measured)",
+    )
+    p.add_argument(
+        "--lidar-topic", help="LaserScan for the phantom proxy (default: the bag's LaserScan that is not ground truth)"
+    )
+    add_intrinsics(p, ", for folders of frames (default: --sensor-model's typical ones)")
     p.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit frames [m]")
-    p.add_argument("--frame-rate", type=float, default=30.0, help="of folders of frames [Hz]")
+    p.add_argument("--frame-rate", type=float, default=30.0, help="of folders of frames: their stamps [Hz]")
     add_sensor_model(p, "its threshold curve, range and cliff pixels (and intrinsics of frames)")
     add_param(p, "a core Config field of every configuration")
-    p.add_argument("--config", metavar="A.yaml", help="the configuration (Config fields as YAML, over --param)")
+    p.add_argument(
+        "--config",
+        metavar="A.yaml",
+        help="the configuration: Config fields as YAML, over --param (default: --param's fields, named 'default' "
+        "when there are none)",
+    )
     p.add_argument(
         "--compare",
         metavar="B.yaml",
         action="append",
-        help="another configuration run over the same recordings and compared with the first (repeatable)",
+        help="another configuration run over the same recordings and compared with the first (repeatable; "
+        "default: none)",
     )
     p.add_argument(
-        "--grid", metavar="FIELD=V1,V2", help="the first configuration with each of these values of one field"
+        "--grid",
+        metavar="FIELD=V1,V2",
+        help="the first configuration with each of these values of one field (default: none)",
     )
-    p.add_argument("--threads", type=int, default=1, help="core threads per task (one task per worker thread)")
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="core threads per task [threads] (0: OpenMP's default; one task per worker)",
+    )
     p.add_argument("--checksum", action="store_true", help="a rerun compares inputs by content (default: size, mtime)")
     p.add_argument("--redo", action="store_true", help="do every recording again (default: skip up-to-date rows)")
     p.add_argument(
         "--bench",
         action="store_true",
-        help="the benchmark instead: synthetic recordings with 1 and 2 workers, against plain replay",
+        help="the benchmark instead: synthetic recordings with 1 and 2 workers, against plain replay (default: off)",
     )
-    p.add_argument("--bench-recordings", type=int, default=4, help="--bench: recordings")
-    p.add_argument("--bench-frames", type=int, default=150, help="--bench: frames per recording")
-    p.add_argument("--bench-repeat", type=int, default=2, help="--bench: rounds (the best of each is shown)")
+    p.add_argument("--bench-recordings", type=int, default=4, help="--bench: recordings [recordings]")
+    p.add_argument("--bench-frames", type=int, default=150, help="--bench: frames per recording [frames]")
+    p.add_argument("--bench-repeat", type=int, default=2, help="--bench: rounds, the best of each shown [rounds]")
     add_quiet(p)
 
 
