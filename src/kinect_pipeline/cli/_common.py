@@ -163,7 +163,7 @@ def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positiona
 
 def frame_files(items: Iterable[str]) -> list[Path]:
     """The frames named: files as given, folders as their depth frames in name order."""
-    from ..calibrate import frame_paths
+    from ..tools.calibrate import frame_paths
 
     try:
         return frame_paths([Path(p) for p in items])

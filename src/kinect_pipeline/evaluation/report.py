@@ -18,12 +18,14 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from .bags import LASER_SCAN, depth_frames, open_bag, pick_topics, read_side, read_tf, stamp
-from .demo import plot_frame
+from .. import _core
+from ..bags.messages import LASER_SCAN, stamp
+from ..bags.reader import depth_frames, open_bag, pick_topics, read_side
+from ..bags.tf import read_tf
+from ..figures import plot_frame
+from ..outputs import check_outputs, output_folder, save_figure, write_text
+from ..tools.replay import ReplayError, ReplayOptions
 from .metrics import missed_beams, phantom_beams
-from .outputs import check_outputs, output_folder, save_figure, write_text
-from .replay import ReplayError, ReplayOptions
 
 #: Everything a report may write into its folder.
 FILES = ("frame.png", "scan.png", "confidence.png", "timing.png", "quality.json", "index.html")
@@ -180,7 +182,7 @@ def collect_frames(
     """Runs the core over depth frames (one sequence, in the order given) at the pose of ``config``'s
     sensor_height / sensor_pitch / sensor_roll where it gives one, else at the pose calibrated from the frames'
     floor."""
-    from .calibrate import CalibrationError, calibrate, load_depth
+    from ..tools.calibrate import CalibrationError, calibrate, load_depth
 
     config = dict(config or {})
     out = Collected(f"{len(files)} depth frame(s): {files[0]}{' ...' if len(files) > 1 else ''}")
@@ -204,7 +206,7 @@ def collect_frames(
     runner = _Runner(config, out)
     items: Any = frames
     if show_progress:
-        from .demo import progress
+        from ..outputs import progress
 
         items = progress(frames, len(frames), "report")
     for i, (name, metres) in enumerate(items):
@@ -233,7 +235,7 @@ def write_report(
     ground truth) into ``out_dir``. ``source``: a bag of any kind, or depth frames (files or folders of them: then
     ``camera`` is needed). Nothing is written when the input cannot be used, and none of the report's files may be
     an input."""
-    from .calibrate import frame_paths, is_frames
+    from ..tools.calibrate import frame_paths, is_frames
 
     opts = opts or ReplayOptions()
     out_dir = Path(out_dir)

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
+from .. import _core
 
 
 class CalibrationError(ValueError):
@@ -140,7 +140,7 @@ class Calibration:
 def plot_calibration(metres: np.ndarray, camera: _core.Camera, result: Calibration, path: Path, name: str) -> None:
     """The frame's depth and, under the calibrated pose, the floor the pipeline then removes (green): where the
     calibration is right, the floor is green up to the walls and nothing stands on it."""
-    from .demo import plot_frame
+    from ..figures import plot_frame
 
     cfg = _core.Config(
         sensor_height=result.height,
@@ -318,7 +318,10 @@ def check_tf(
     """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
     stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
     check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion)."""
-    from .bags import BagError, depth_frames, open_bag, pick_topics, read_tf, stamp
+    from ..bags.messages import stamp
+    from ..bags.reader import depth_frames, open_bag, pick_topics
+    from ..bags.ros1 import BagError
+    from ..bags.tf import read_tf
 
     if not isinstance(bag, (str, Path)):
         raise TypeError(f"bag: {type(bag).__name__}, expected a path")
@@ -391,7 +394,7 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .outputs import save_figure
+    from ..outputs import save_figure
 
     good = [f for f in check.frames if f["found"]]
     t0 = check.frames[0]["stamp"]
