@@ -28,10 +28,18 @@ distributed = pytest.importorskip("distributed")
 from clitool import cli
 
 import kinect_pipeline as kp
-from kinect_pipeline.bag import write_sequence_bag
-from kinect_pipeline.bags import depth_array, open_bag
-from kinect_pipeline.fleet import EVENT_TOPIC, FleetError, FleetOptions, find_recordings, load_config, measure_recording
-from kinect_pipeline.replay import ReplayOptions
+from kinect_pipeline.bags.messages import depth_array
+from kinect_pipeline.bags.reader import open_bag
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
+from kinect_pipeline.tools.fleet import (
+    EVENT_TOPIC,
+    FleetError,
+    FleetOptions,
+    find_recordings,
+    load_config,
+    measure_recording,
+)
+from kinect_pipeline.tools.replay import ReplayOptions
 
 FRAMES = 6
 
@@ -70,7 +78,7 @@ def recs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         # b.bag's tf states the mount 5 cm too high and 1 deg too far down: the floor refinement learns it
         wrong = (0.05, math.radians(1.0), 0.0) if kind == "ros1_b" else (0.0, 0.0, 0.0)
         fmt = "sqlite3" if kind == "sqlite3" else None
-        write_sequence_bag(path, frames=FRAMES, seed=10 + i, fmt=fmt, tf_error=wrong)
+        write_sequence_bag(path, Scenario(frames=FRAMES, seed=10 + i, tf_error=wrong), fmt=fmt)
     data = out["ros1_b"].read_bytes()
     out["damaged"] = d / "damaged.bag"
     out["damaged"].write_bytes(data[: len(data) // 2])  # cut in the middle, as a recording whose disk filled up
@@ -260,7 +268,7 @@ def longer(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     d = tmp_path_factory.mktemp("fleet_long")
     paths = [d / "r0.bag", d / "r1_sqlite", d / "r2.bag", d / "r3_sqlite"]
     for p in paths[:2]:
-        write_sequence_bag(p, frames=24, seed=30, fmt="sqlite3" if p.name.endswith("sqlite") else None)
+        write_sequence_bag(p, Scenario(frames=24, seed=30), fmt="sqlite3" if p.name.endswith("sqlite") else None)
     shutil.copyfile(paths[0], paths[2])  # copies: other recordings of the same drive
     shutil.copytree(paths[1], paths[3])
     return paths

@@ -112,7 +112,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def configurations(args: argparse.Namespace) -> list[tuple[str, dict[str, Any]]]:
     """The configurations of the run, by name: --config (else the --param ones), each --compare, the --grid."""
-    from ..fleet import FleetError, grid_configs, load_config
+    from ..tools.fleet import FleetError, grid_configs, load_config
 
     base = with_sensor_model(parse_params(args.param), args.sensor_model)
     try:
@@ -130,11 +130,11 @@ def configurations(args: argparse.Namespace) -> list[tuple[str, dict[str, Any]]]
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fleet import FleetError, FleetOptions, find_recordings, run_fleet
-    from ..fleet_html import write_index
+    from ..tools.fleet import FleetError, FleetOptions, find_recordings, run_fleet
+    from ..tools.fleet_html import write_index
 
     if args.bench:
-        from ..fleet_bench import bench
+        from ..tools.fleet_bench import bench
 
         print(bench(args.bench_recordings, args.bench_frames, args.bench_repeat))
         return 0

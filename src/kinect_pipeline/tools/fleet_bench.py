@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from .bag import write_sequence_bag
+from ..simulation.sequence_bag import Scenario, write_sequence_bag
 from .fleet import FleetOptions, FleetResult, Table, _client, _Progress, _run_jobs, measure_recording, plan
 from .replay import replay
 
@@ -20,7 +20,7 @@ from .replay import replay
 def _bags(work: Path, recordings: int, frames: int) -> list[Path]:
     """One synthetic bag of ``frames`` frames and copies of it: the same work per recording."""
     first = work / "rec0.bag"
-    write_sequence_bag(first, frames=frames, seed=5)
+    write_sequence_bag(first, Scenario(frames=frames, seed=5))
     paths = [first]
     for i in range(1, recordings):
         paths.append(work / f"rec{i}.bag")
@@ -36,7 +36,7 @@ def _warm() -> None:
     """A worker's one-time start: the imports a task needs (the package, the binding, rosbags)."""
     import importlib
 
-    for name in ("kinect_pipeline.fleet", "rosbags.rosbag1", "rosbags.rosbag2"):
+    for name in ("kinect_pipeline.tools.fleet", "rosbags.rosbag1", "rosbags.rosbag2"):
         importlib.import_module(name)
 
 

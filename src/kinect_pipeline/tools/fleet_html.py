@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .outputs import save_figure, write_text
+from ..outputs import save_figure, write_text
 
 SHOWN = 12  #: recordings drawn (the worst)
 

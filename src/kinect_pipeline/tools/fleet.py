@@ -21,11 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from .bagfile import BagError, Damage
-from .bags import LASER_SCAN, CameraInfos, open_bag, pick_topics, read_side, read_tf, stamp
+from .. import _core
+from ..bags.messages import LASER_SCAN, stamp
+from ..bags.reader import CameraInfos, open_bag, pick_topics, read_side
+from ..bags.ros1 import BagError, Damage
+from ..bags.tf import read_tf
+from ..evaluation.metrics import phantom_beams
+from ..outputs import write_text
 from .calibrate import FRAME_SUFFIXES, calibrate, frame_paths, load_depth
-from .metrics import phantom_beams
 from .replay import ReplayOptions, ReplayReport, _Frames, reasons
 
 #: Columns of fleet.csv, in order (fleet.json has these and the learned correction over time).
@@ -606,8 +609,6 @@ class Table:
     def save(self) -> None:
         import csv
         import io
-
-        from .outputs import write_text
 
         rows = sorted(self.rows.values(), key=lambda r: (r["recording"], r["config"]))
         doc = {"tool": "kinect-pipeline fleet", "columns": list(COLUMNS), "rows": rows}
