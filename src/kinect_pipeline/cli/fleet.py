@@ -19,7 +19,7 @@ from ._common import (
     parse_params,
     with_sensor_model,
 )
-from .replay import add_bag_topics, bag_options
+from .replay import add_bag_topics, add_pose_fallback, bag_options
 
 NAME = "fleet"
 HELP = (
@@ -54,12 +54,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a running Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: a LocalCluster on this machine)",
     )
     add_bag_topics(p)
-    p.add_argument(
-        "--pose-fallback",
-        choices=["static", "skip"],
-        default="static",
-        help="frames without tf: the static pose of the configuration, or skip them",
-    )
+    add_pose_fallback(p)
     p.add_argument(
         "--skip-bad",
         action="store_true",
