@@ -32,15 +32,19 @@ def _noop(i: int) -> int:
     return i
 
 
-def _warm() -> None:
-    """A worker's one-time start: the imports a task needs (the package, the binding, rosbags)."""
-    import importlib
-
-    for name in ("kinect_pipeline.tools.fleet", "rosbags.rosbag1", "rosbags.rosbag2"):
-        importlib.import_module(name)
+def _warm(path: str) -> None:
+    """A process's one-time start, done before the clock runs: the imports and rosbags' message types (a task on a
+    2-frame bag)."""
+    _check([measure_recording(path, FleetOptions(), [("default", {})])[0]], 2)
 
 
-def _fleet(paths: list[Path], out: Path, workers: int) -> tuple[float, float, float]:
+def _check(rows: list[dict[str, Any]], frames: int) -> None:
+    bad = [f"{r['recording']}: {r['status']}, {r['processed']} frames" for r in rows if r["processed"] != frames]
+    if bad:
+        raise RuntimeError(f"the benchmark's recordings were not measured whole: {bad[:2]}")
+
+
+def _fleet(paths: list[Path], out: Path, workers: int, warm: Path, frames: int) -> tuple[float, float, float]:
     """(seconds to start the LocalCluster and import the package in its workers, seconds for the recordings,
     median seconds of a Dask round trip of an empty task) with ``workers`` workers."""
     from distributed import as_completed
@@ -53,7 +57,7 @@ def _fleet(paths: list[Path], out: Path, workers: int) -> tuple[float, float, fl
     t0 = time.perf_counter()
     client, cluster = _client(workers, None)
     try:
-        client.run(_warm)
+        client.run(_warm, str(warm))
         t1 = time.perf_counter()
         _run_jobs(client, jobs, opts, table, FleetResult(), _Progress(len(jobs), quiet=True), as_completed)
         t2 = time.perf_counter()
@@ -65,16 +69,17 @@ def _fleet(paths: list[Path], out: Path, workers: int) -> tuple[float, float, fl
     finally:
         client.close()
         cluster.close()
-    bad = [r["status"] for r in table.rows.values() if r["status"] != "ok"]
-    if bad:
-        raise RuntimeError(f"the benchmark's recordings failed: {bad[:2]}")
+    _check(list(table.rows.values()), frames)
     return t1 - t0, t2 - t1, statistics.median(trips)
 
 
-def _rounds(paths: list[Path], work: Path, repeat: int) -> dict[str, list[float]]:
+def _rounds(paths: list[Path], work: Path, repeat: int, frames: int) -> dict[str, list[float]]:
     """Seconds of each way over all recordings, the ways interleaved ``repeat`` times (the shared machine's load
     comes and goes: each way meets it alike)."""
     got: dict[str, list[float]] = {k: [] for k in ("replay", "task", "start1", "one", "trip", "start2", "two")}
+    warm = work / "warm.bag"
+    write_sequence_bag(warm, Scenario(frames=2, seed=5))
+    _warm(str(warm))
     for k in range(repeat):
         t0 = time.perf_counter()
         for i, p in enumerate(paths):
@@ -83,11 +88,11 @@ def _rounds(paths: list[Path], work: Path, repeat: int) -> dict[str, list[float]
         for i in range(len(paths)):
             (work / f"replayed{i}.bag").unlink()
         t0 = time.perf_counter()
-        for p in paths:
-            measure_recording(str(p), FleetOptions(), [("default", {})])
+        rows = [measure_recording(str(p), FleetOptions(), [("default", {})])[0] for p in paths]
         got["task"].append(time.perf_counter() - t0)
+        _check(rows, frames)
         for w, key in ((1, "one"), (2, "two")):
-            start, run, trip = _fleet(paths, work / f"out{w}_{k}", w)
+            start, run, trip = _fleet(paths, work / f"out{w}_{k}", w, warm, frames)
             got[f"start{w}"].append(start)
             got[key].append(run)
             got["trip"].append(trip)
@@ -99,7 +104,7 @@ def bench(recordings: int = 4, frames: int = 100, repeat: int = 2) -> str:
     load0 = os.getloadavg()[0]
     try:
         paths = _bags(work, recordings, frames)
-        got = _rounds(paths, work, repeat)
+        got = _rounds(paths, work, repeat, frames)
     finally:
         shutil.rmtree(work, ignore_errors=True)
     best = {k: min(v) for k, v in got.items()}
@@ -115,8 +120,8 @@ def bench(recordings: int = 4, frames: int = 100, repeat: int = 2) -> str:
     for name, key in (
         ("plain `replay`, one after the other (writes each output bag)", "replay"),
         ("the fleet's task in this process, no Dask (no output bag)", "task"),
-        (f"fleet, 1 worker (LocalCluster start and imports {best['start1']:.1f} s not counted)", "one"),
-        (f"fleet, 2 workers (LocalCluster start and imports {best['start2']:.1f} s not counted)", "two"),
+        (f"fleet, 1 worker (LocalCluster start and warm-up {best['start1']:.1f} s not counted)", "one"),
+        (f"fleet, 2 workers (LocalCluster start and warm-up {best['start2']:.1f} s not counted)", "two"),
     ):
         s = best[key]
         lines.append(f"| {name} | {n / s:.2f} | {f / s:.1f} | {s / n:.2f} |")
