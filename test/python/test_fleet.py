@@ -42,6 +42,7 @@ from kinect_pipeline.tools.fleet import (
 from kinect_pipeline.tools.replay import ReplayOptions
 
 FRAMES = 6
+LONG = 40  #: frames of the recordings one of whose workers is killed: time to kill it while it works
 
 
 def sha(path: Path) -> str:
@@ -268,7 +269,7 @@ def longer(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     d = tmp_path_factory.mktemp("fleet_long")
     paths = [d / "r0.bag", d / "r1_sqlite", d / "r2.bag", d / "r3_sqlite"]
     for p in paths[:2]:
-        write_sequence_bag(p, Scenario(frames=24, seed=30), fmt="sqlite3" if p.name.endswith("sqlite") else None)
+        write_sequence_bag(p, Scenario(frames=LONG, seed=30), fmt="sqlite3" if p.name.endswith("sqlite") else None)
     shutil.copyfile(paths[0], paths[2])  # copies: other recordings of the same drive
     shutil.copytree(paths[1], paths[3])
     return paths
@@ -310,7 +311,7 @@ def test_real_scheduler_two_workers_one_killed_while_it_works(cluster: Any, long
     rows = rows_of(out)
     assert sorted(Path(r["recording"]).name for r in rows) == sorted(p.name for p in longer)  # each exactly once
     for r in rows:
-        check_row(r, 24)
+        check_row(r, LONG)
     redone = next(r for r in rows if r["recording"] == busy["recording"])
     assert redone["worker"] and redone["worker"] != busy["worker"]  # retried on the other worker
     text = (tmp_path / "fleet.log").read_text()
