@@ -383,26 +383,37 @@ class _Damages:
         self.notes.append(f"damaged, skipped: {d}")
 
 
-def _lidar_scans(bag: Any, topic: str | None, damages: _Damages) -> dict[float, Any]:
-    """The bag's LiDAR scans by stamp (``topic``, default its LaserScan that is not ground truth)."""
-    topic = topic or next(
-        (c.topic for c in bag.connections if c.msgtype == LASER_SCAN and not c.topic.startswith("/ground_truth")),
-        None,
-    )
-    if topic is None:
-        return {}
-    return {stamp(msg): msg for _, msg in read_side(bag, (topic,), damages)}
+class _Lidar:
+    """The bag's LiDAR scans (``topic``, default its LaserScan that is not ground truth), found by stamp."""
+
+    def __init__(self, bag: Any, topic: str | None, damages: _Damages) -> None:
+        topic = topic or next(
+            (c.topic for c in bag.connections if c.msgtype == LASER_SCAN and not c.topic.startswith("/ground_truth")),
+            None,
+        )
+        found = read_side(bag, (topic,), damages) if topic else iter(())
+        scans = sorted(((stamp(m), m) for _, m in found), key=lambda x: x[0])
+        self.stamps = np.array([s for s, _ in scans])
+        self.scans = [m for _, m in scans]
+
+    def nearest(self, at: float) -> Any:
+        """The scan nearest in time to ``at`` (None: the bag has none)."""
+        if not self.scans:
+            return None
+        i = int(np.searchsorted(self.stamps, at))
+        near = [k for k in (i - 1, i) if 0 <= k < len(self.scans)]
+        return self.scans[min(near, key=lambda k: abs(self.stamps[k] - at))]
 
 
-def _lidar_beams(scans: dict[float, Any], tf: Any, opts: ReplayOptions, img: Any, res: Any) -> np.ndarray | None:
-    """The nearest-in-time LiDAR scan, as the nearest LiDAR range per beam of the camera's scan (+Inf none)."""
-    if not scans:
+def _lidar_beams(lidar: _Lidar, tf: Any, opts: ReplayOptions, img: Any, res: Any) -> np.ndarray | None:
+    """The LiDAR scan nearest in time, as the range of its return nearest in bearing to each beam of the camera's
+    scan, within one LiDAR step (+Inf: none)."""
+    msg = lidar.nearest(stamp(img))
+    if msg is None:
         return None
-    at = stamp(img)
-    msg = scans.get(at) or scans[min(scans, key=lambda s: abs(s - at))]
     try:
-        lq, lt = tf.lookup(opts.base_frame, msg.header.frame_id, at, opts.tf_tolerance)
-        cq, ct = tf.lookup(opts.base_frame, img.header.frame_id, at, opts.tf_tolerance)
+        lq, lt = tf.lookup(opts.base_frame, msg.header.frame_id, stamp(img), opts.tf_tolerance)
+        cq, ct = tf.lookup(opts.base_frame, img.header.frame_id, stamp(img), opts.tf_tolerance)
     except LookupError:
         return None
     l_yaw = _core.roll_pitch_yaw(lq)[2]
@@ -410,19 +421,22 @@ def _lidar_beams(scans: dict[float, Any], tf: Any, opts: ReplayOptions, img: Any
     r = np.asarray(msg.ranges, np.float64)
     a = msg.angle_min + msg.angle_increment * np.arange(len(r)) + l_yaw
     ok = np.isfinite(r) & (r >= msg.range_min) & (r <= msg.range_max)
+    # the returns in the camera scan's frame: at the sensor's x, y, turned by its yaw
     x, y = lt[0] + r[ok] * np.cos(a[ok]) - ct[0], lt[1] + r[ok] * np.sin(a[ok]) - ct[1]
-    seen, dist = np.arctan2(y, x) - c_yaw, np.hypot(x, y)
-    order = np.argsort(seen)
-    seen, dist = seen[order], dist[order]
-    out = np.full(len(res.ranges), np.inf)
-    if not len(seen):
+    beams = res.angle_min + res.angle_increment * np.arange(len(res.ranges))
+    return _nearest_in_bearing(np.arctan2(y, x) - c_yaw, np.hypot(x, y), beams, abs(msg.angle_increment))
+
+
+def _nearest_in_bearing(bearing: np.ndarray, dist: np.ndarray, beams: np.ndarray, within: float) -> np.ndarray:
+    out = np.full(len(beams), np.inf)
+    if not len(bearing):
         return out
-    beam = res.angle_min + res.angle_increment * np.arange(len(out))
-    i = np.clip(np.searchsorted(seen, beam), 1, max(1, len(seen) - 1))
-    lo = np.clip(i - 1, 0, len(seen) - 1)
-    i = np.clip(i, 0, len(seen) - 1)
-    j = np.where(np.abs(seen[lo] - beam) <= np.abs(seen[i] - beam), lo, i)  # the LiDAR return nearest in bearing
-    near = np.abs(seen[j] - beam) <= abs(msg.angle_increment)
+    order = np.argsort(bearing)
+    bearing, dist = bearing[order], dist[order]
+    hi = np.clip(np.searchsorted(bearing, beams), 0, len(bearing) - 1)
+    lo = np.clip(hi - 1, 0, len(bearing) - 1)
+    j = np.where(np.abs(bearing[lo] - beams) <= np.abs(bearing[hi] - beams), lo, hi)
+    near = np.abs(bearing[j] - beams) <= within
     out[near] = dist[j[near]]
     return out
 
@@ -437,7 +451,7 @@ def _run_bag(path: Path, opts: FleetOptions, tracks: list[_Track], events: _Even
         depth, info = pick_topics(list(bag.connections), opts.replay.depth_topic, opts.replay.info_topic)
         tf = read_tf(bag, damages)
         infos = CameraInfos(bag, info, damages)
-        lidar = _lidar_scans(bag, opts.lidar_topic, damages)
+        lidar = _Lidar(bag, opts.lidar_topic, damages)
         frames = []
         for t in tracks:
             t.report.depth_topic = depth
