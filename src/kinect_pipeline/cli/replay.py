@@ -24,6 +24,15 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     p.add_argument("--base-frame-height", type=float, default=0.0, help="its origin's height above the floor [m]")
 
 
+def add_pose_fallback(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--pose-fallback",
+        choices=["static", "skip"],
+        default="static",
+        help="frames without tf: the static pose of the parameters, or skip them",
+    )
+
+
 def bag_options(args: argparse.Namespace, **more: object) -> Any:
     """ReplayOptions of the options add_bag_topics, --param and --sensor-model gave."""
     from ..tools.replay import ReplayOptions
@@ -49,12 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "converted between ROS 1 and ROS 2 definitions)",
     )
     add_bag_topics(p)
-    p.add_argument(
-        "--pose-fallback",
-        choices=["static", "skip"],
-        default="static",
-        help="frames without tf: the static pose of the parameters, or skip them",
-    )
+    add_pose_fallback(p)
     p.add_argument(
         "--skip-bad",
         action="store_true",
