@@ -484,15 +484,14 @@ class Cameras:
         """The camera of a depth message whose image is ``depth``, and a note where its camera_info is not of its
         own stamp (:meth:`CameraInfos.for_stamp`)."""
         height, width = depth.shape[:2]
-        frame_id = str(msg.header.frame_id)
         try:
             if self.intrinsics is not None:
-                return self.intrinsics.camera(width, height, frame_id), ""
+                return self.intrinsics.camera(width, height), ""
             if self.infos is not None and self.infos.stamps:
                 info, note = self.infos.for_stamp(stamp(msg))
                 return camera_from_info(info), note
             if self.sensor_model:
-                cam, self.warning = nominal_camera(self.sensor_model, width, height, frame_id)
+                cam, self.warning = nominal_camera(self.sensor_model, width, height)
                 return cam, ""
         except IntrinsicsError as exc:
             raise BagError(str(exc)) from exc

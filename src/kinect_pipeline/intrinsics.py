@@ -1,7 +1,7 @@
 """The depth camera's intrinsics where a recording has no CameraInfo (bags of robots often have none, and folders of
 frames never do): given as numbers (``FX FY CX CY [W H]``, with or without commas), read from a camera_info YAML as
 ``camera_calibration`` writes it, or a sensor preset's nominal camera scaled to the image size (a guess: said in a
-warning). The cameras themselves are the core's (``_core.camera_from_intrinsics``), checked there."""
+warning). The cameras themselves are the core's (``_core.Camera``), checked there."""
 
 from __future__ import annotations
 
@@ -42,14 +42,15 @@ class Intrinsics:
         v = [float(x) for x in values]
         if len(v) not in (4, 6):
             raise IntrinsicsError(f"{source}: {len(v)} numbers: expected FX FY CX CY, or FX FY CX CY W H")
-        if not all(math.isfinite(x) for x in v):
-            raise IntrinsicsError(f"{source}: {values}: expected finite numbers")
+        for name, x in zip(("fx", "fy", "cx", "cy", "width", "height"), v, strict=False):
+            if not math.isfinite(x):
+                raise IntrinsicsError(f"{source}: {name} = {x}: expected a finite number")
         size = (v[4], v[5]) if len(v) == 6 else (0.0, 0.0)
         if size != (int(size[0]), int(size[1])) or min(size) < 0:
             raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels")
         return Intrinsics(v[0], v[1], v[2], v[3], int(size[0]), int(size[1]), source)
 
-    def camera(self, width: int, height: int, frame_id: str = "") -> Any:
+    def camera(self, width: int, height: int) -> Any:
         """The core's camera for images of ``width`` x ``height``; a size that differs from theirs, or values the
         core refuses, raise IntrinsicsError naming them."""
         if self.width and (self.width, self.height) != (width, height):
@@ -57,10 +58,9 @@ class Intrinsics:
                 f"{self.source}: intrinsics for {self.width}x{self.height} images, but the depth images are "
                 f"{width}x{height}"
             )
-        k = [self.fx, 0.0, self.cx, 0.0, self.fy, self.cy, 0.0, 0.0, 1.0]
         try:
-            return _core.camera_from_intrinsics(int(width), int(height), k, frame_id)
-        except ValueError as exc:
+            return _core.Camera(int(width), int(height), self.fx, self.fy, self.cx, self.cy)
+        except (ValueError, TypeError) as exc:
             raise IntrinsicsError(f"{self.source}: {exc}") from exc
 
 
@@ -110,7 +110,7 @@ def read_camera_info_yaml(path: Path) -> Intrinsics:
     return Intrinsics(k[0], k[4], k[2], k[5], width, height, where)
 
 
-def nominal_camera(model: str, width: int, height: int, frame_id: str = "") -> tuple[Any, str]:
+def nominal_camera(model: str, width: int, height: int) -> tuple[Any, str]:
     """The sensor preset's nominal camera, scaled to ``width`` x ``height`` where the aspect ratio is the same (a
     camera run at half resolution), and the warning that it is only a guess. Another aspect ratio raises
     IntrinsicsError."""
@@ -121,8 +121,9 @@ def nominal_camera(model: str, width: int, height: int, frame_id: str = "") -> t
             f"--sensor-model {model}: its nominal camera is {cam.width}x{cam.height}, the depth images are "
             f"{width}x{height} (another aspect ratio): give {HOW}"
         )
-    k = [cam.fx * sx, 0.0, (cam.cx + 0.5) * sx - 0.5, 0.0, cam.fy * sy, (cam.cy + 0.5) * sy - 0.5, 0.0, 0.0, 1.0]
-    out = _core.camera_from_intrinsics(int(width), int(height), k, frame_id)
+    out = _core.Camera(
+        int(width), int(height), cam.fx * sx, cam.fy * sy, (cam.cx + 0.5) * sx - 0.5, (cam.cy + 0.5) * sy - 0.5
+    )
     scaled = f" scaled to {width}x{height}" if (sx, sy) != (1.0, 1.0) else ""
     warning = (
         f"no camera intrinsics given: the nominal camera of --sensor-model {model} ({cam.width}x{cam.height}, "

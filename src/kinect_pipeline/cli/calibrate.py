@@ -34,8 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--max-tilt",
         type=float,
         default=40.0,
-        help="largest |pitch| and |roll| considered [deg]: a wall seen by a level camera looks like a floor seen by "
-        "a steeply tilted one",
+        help="largest tilt of the floor from the image's up considered [deg] (where that finds no plausible floor, "
+        "the frame is searched a quarter turn either way too: any mounting roll, |pitch| up to this): a wall seen by "
+        "a level camera looks like a floor seen by a steeply tilted one",
     )
     p.add_argument("--json", action="store_true", help="print JSON: height [m], pitch, roll [rad], ... (default: text)")
     p.add_argument("--optical-frame", default="kinect2_depth_optical_frame", help="child frame of the static tf line")
