@@ -275,10 +275,9 @@ def floor_poses(
     out.problems += [w for w in cal.warnings if "disagree" not in w]
     if missing:
         more = ", ..." if len(missing) > 3 else ""
-        out.problems.insert(
-            0,
+        out.warnings.append(
             f"{len(missing)} of {len(frames)} frames left out: no floor of their own, so their pose is not known "
-            f"(a moving camera): {', '.join(missing[:3])}{more}",
+            f"(a moving camera): {', '.join(missing[:3])}{more}"
         )
     return poses
 

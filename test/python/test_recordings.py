@@ -221,7 +221,7 @@ def test_report_of_a_handheld_sequence_gives_each_frame_its_own_floor(tmp_path: 
     c = collect_frames(files, cam, show_progress=False)
     assert c.pose_note.startswith("pose per frame, each from its own floor"), c.pose_note
     assert 0 < len(c.frames) < len(files)
-    assert any("frames left out" in p for p in c.problems)
+    assert any("frames left out: no floor of their own" in w for w in c.warnings), c.warnings
     frames = [(str(f), load_depth(f)) for f in files]
     poses = floor_poses(frames, cam, Collected("x"))
     used = [(f, p) for f, p in zip(frames, poses, strict=True) if p is not None]
@@ -256,6 +256,7 @@ def test_report_of_a_handheld_sequence_gives_each_frame_its_own_floor(tmp_path: 
     r = cli("report", str(KITCHEN), "-o", str(tmp_path / "rep"), "--quiet", "--intrinsics", KITCHEN_K)
     assert r.returncode == 0, r.stderr
     assert "pose per frame" in r.stdout and "3 colour image(s) skipped" in r.stderr
+    assert "WARNING: " in r.stderr and "frames left out" in r.stderr
 
 
 def test_report_refuses_frames_without_any_floor(tmp_path: Path) -> None:
