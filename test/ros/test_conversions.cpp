@@ -7,7 +7,7 @@
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
 
-#include "kinect_pipeline/config_fields.h"
+#include "kinect_pipeline/model/config_table.h"
 #include "kinect_pipeline/ros/conversions.h"
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
 

@@ -15,7 +15,7 @@
 #include <ros/node_handle.h>
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
-#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/model/config.h"
 
 namespace kinect_pipeline
 {
