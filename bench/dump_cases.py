@@ -13,7 +13,7 @@ cases and outputs that differ (how many elements, the first one, with values whe
 exits 1. A case missing on one side is a difference too.
 
 The matrix (2880 cases, and 192 extra ones): 3 encodings x 4 scenes (lab, boxes, stair, hole of
-kinect_pipeline.scenes) x 5 poses (two with roll, one told off by centimetres and degrees so that the floor
+kinect_pipeline.simulation.scenes) x 5 poses (two with roll, one told off by centimetres and degrees so that the floor
 refinement moves it) x both projections x both geometries x opening kernels 0, 3, 5 x 1 and 2 threads x
 refine_floor on and off, each case two noisy frames through one Pipeline (the confidence's window holds both), with
 the cliff scan on. The extra cases vary what the matrix holds fixed: surface_band, the cross and ellipse kernels,
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 import kinect_pipeline as kp
-from kinect_pipeline import scenes
+from kinect_pipeline.simulation import scenes
 
 ENCODINGS = ("8UC1", "16UC1", "32FC1")
 SCENES = {"lab": scenes.lab_scene, "boxes": scenes.boxes_scene, "stair": scenes.stair_scene, "hole": scenes.hole_scene}

@@ -16,6 +16,7 @@ from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 
 class OutputError(ValueError):
@@ -210,3 +211,13 @@ def save_figure(fig: object, path: PathLike, dpi: int = 110) -> None:
     """A matplotlib figure as a PNG at ``path``, atomically."""
     with atomic_file(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")  # type: ignore[attr-defined]
+
+
+def progress(items: Iterable[Any], total: int, desc: str) -> Iterator[Any]:
+    """A tqdm progress bar with frames/s when tqdm is there and stderr is a terminal or CI log."""
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover - tqdm is in requirements.txt
+        yield from items
+        return
+    yield from tqdm(items, total=total, desc=desc, unit="frame", dynamic_ncols=True, mininterval=0.5)

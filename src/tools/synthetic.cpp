@@ -6,6 +6,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "kinect_pipeline/model/pose.h"
+
 namespace kinect_pipeline
 {
 namespace
@@ -50,9 +52,7 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
   out.range.create(camera.height, camera.width, CV_32F);
   out.angle.create(camera.height, camera.width, CV_32F);
   out.object.create(camera.height, camera.width, CV_16S);
-  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-  // R = Ry(pitch) * Rx(roll): sensor frame (x fwd, y left, z up) -> gravity-aligned frame.
-  const double R[3][3] = {{cp, sp * sr, sp * cr}, {0.0, cr, -sr}, {-sp, cp * sr, cp * cr}};
+  const std::array<double, 9> m = levelFromOptical(pitch, roll);
   const Vec3 o{0.0, 0.0, height};
   const float nanf = std::numeric_limits<float>::quiet_NaN();
   for (int v = 0; v < camera.height; ++v)
@@ -60,9 +60,8 @@ void renderScene(const Camera& camera, double height, double pitch, double roll,
     for (int u = 0; u < camera.width; ++u)
     {
       const double xn = (u - camera.cx) / camera.fx, yn = (v - camera.cy) / camera.fy;
-      const double b[3] = {1.0, -xn, -yn};  // optical (xn, yn, 1) in the sensor frame; depth = t
-      const Vec3 d{R[0][0] * b[0] + R[0][1] * b[1] + R[0][2] * b[2], R[1][0] * b[0] + R[1][1] * b[1] + R[1][2] * b[2],
-                   R[2][0] * b[0] + R[2][1] * b[1] + R[2][2] * b[2]};
+      // The ray (xn, yn, 1) in the level frame; depth = t.
+      const Vec3 d{m[2] + m[0] * xn + m[1] * yn, m[5] + m[3] * xn + m[4] * yn, m[8] + m[6] * xn + m[7] * yn};
       double best = kInf;
       int id = -1;
       if (scene.floor && d.z < 0.0)

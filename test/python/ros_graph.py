@@ -12,8 +12,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from kinect_pipeline.bench_ros import _free_port as free_port
-from kinect_pipeline.bench_ros import _stop
+from kinect_pipeline.tools.bench_ros import _free_port as free_port
+from kinect_pipeline.tools.bench_ros import _stop
 
 ROOT = Path(__file__).resolve().parents[2]
 NODE = ROOT / "build" / "devel" / "lib" / "kinect_pipeline" / "kinect_pipeline_node"

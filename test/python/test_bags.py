@@ -16,9 +16,10 @@ import pytest
 pytest.importorskip("rosbags")
 
 import kinect_pipeline as kp
-from kinect_pipeline.bag import write_sequence_bag
-from kinect_pipeline.bags import BagWriter, bag_format
-from kinect_pipeline.replay import ReplayError, ReplayOptions, replay
+from kinect_pipeline.bags.reader import bag_format
+from kinect_pipeline.bags.writer import BagWriter
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
+from kinect_pipeline.tools.replay import ReplayError, ReplayOptions, replay
 
 FRAMES = 5
 KINDS = {"ros1": "seq.bag", "sqlite3": "seq_sqlite", "mcap": "seq_mcap", "mcap file": "seq.mcap"}
@@ -34,7 +35,7 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     out = {}
     for kind, name in KINDS.items():
         out[kind] = d / name
-        write_sequence_bag(out[kind], frames=FRAMES, encoding="16UC1", seed=8, fmt=fmt_of(kind))
+        write_sequence_bag(out[kind], Scenario(frames=FRAMES, encoding="16UC1", seed=8), fmt=fmt_of(kind))
     return out
 
 
@@ -100,8 +101,7 @@ def test_replay_writes_the_inputs_format_with_the_same_scans(bags: dict[str, Pat
 
 
 def test_the_cliff_scan_is_the_cores(bags: dict[str, Path], tmp_path: Path) -> None:
-    from kinect_pipeline.bag import Rig
-    from kinect_pipeline.demo import SegwayMotion
+    from kinect_pipeline.simulation.robot import Rig, SegwayMotion
 
     out = tmp_path / "c.bag"
     replay(bags["ros1"], out, show_progress=False)
@@ -171,7 +171,7 @@ def test_a_damaged_rosbag2_is_refused_naming_it(bags: dict[str, Path], tmp_path:
 @pytest.mark.parametrize("fmt", [None, "mcap"])
 def test_a_camera_info_after_its_image_pairs_with_it(tmp_path: Path, frames: int, fmt: str | None) -> None:
     bag = tmp_path / ("late.bag" if fmt is None else "late")
-    write_sequence_bag(bag, frames=frames, seed=4, fmt=fmt, info_after_image=True)
+    write_sequence_bag(bag, Scenario(frames=frames, seed=4, info_after_image=True), fmt=fmt)
     r = replay(bag, tmp_path / "out", ReplayOptions(format=fmt or "ros1"), show_progress=False)
     assert r.processed == frames and not any("camera_info" in p for p in r.problems), r.problems
 
@@ -254,7 +254,7 @@ def test_a_bag_without_any_frame_fails(tmp_path: Path) -> None:
 
 def test_report_on_a_plain_camera_bag(tmp_path: Path) -> None:
     bag = tmp_path / "plain.bag"
-    write_sequence_bag(bag, frames=4, seed=6, extras=False)
+    write_sequence_bag(bag, Scenario(frames=4, seed=6, extras=False))
     r = cli("report", str(bag), "-o", str(tmp_path / "rep"), "--quiet")
     assert r.returncode == 0, r.stderr
     rep = tmp_path / "rep"

@@ -11,7 +11,7 @@ import pytest
 
 import kinect_pipeline as kp
 from kinect_pipeline.cli import main
-from kinect_pipeline.scenes import FLOOR, lab_scene, render_frame
+from kinect_pipeline.simulation.scenes import FLOOR, lab_scene, render_frame
 
 cv2 = pytest.importorskip("cv2")
 REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"
@@ -122,7 +122,7 @@ def tf_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """Segway bags (pitching -3..+6 deg) whose tf is right, and whose URDF states the mount 1 deg too far down and
     5 cm too high, and one with a 0.5 deg roll error, in two encodings."""
     pytest.importorskip("rosbags")
-    from kinect_pipeline.bag import write_sequence_bag
+    from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 
     d = tmp_path_factory.mktemp("tfbags")
     out = {}
@@ -132,7 +132,7 @@ def tf_bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
         ("roll_8bit", (0.0, 0.0, math.radians(-0.5)), "8UC1"),
     ):
         out[name] = d / f"{name}.bag"
-        write_sequence_bag(out[name], frames=16, encoding=enc, seed=4, tf_error=err)
+        write_sequence_bag(out[name], Scenario(frames=16, encoding=enc, seed=4, tf_error=err))
     return out
 
 
@@ -186,10 +186,10 @@ def test_bag_check_text_and_bad_input(
     assert main(["calibrate"]) == 1
     assert "--intrinsics" in capsys.readouterr().err
     with pytest.raises(ValueError, match="tf_error"):
-        from kinect_pipeline.bag import write_sequence_bag
+        from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 
-        write_sequence_bag(tmp_path / "e.bag", frames=1, tf_error=(0.0, math.nan, 0.0))
-    from kinect_pipeline.calibrate import check_tf
+        write_sequence_bag(tmp_path / "e.bag", Scenario(frames=1, tf_error=(0.0, math.nan, 0.0)))
+    from kinect_pipeline.tools.calibrate import check_tf
 
     with pytest.raises(TypeError, match="bag"):
         check_tf(3)  # type: ignore[arg-type]

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.demo import SegwayMotion
-from kinect_pipeline.scenes import ENCODINGS, Scene, hole_scene, render_frame, stair_scene
+from kinect_pipeline.simulation.robot import SegwayMotion
+from kinect_pipeline.simulation.scenes import ENCODINGS, Scene, hole_scene, render_frame, stair_scene
 
 CAM = kp.Camera.from_fov(512, 424, math.radians(70.6), math.radians(60.0))
 HEIGHT, TILT = 1.1, 0.3

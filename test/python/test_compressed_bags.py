@@ -16,9 +16,10 @@ import pytest
 pytest.importorskip("rosbags")
 cv2 = pytest.importorskip("cv2")
 
-from kinect_pipeline.bag import write_sequence_bag
-from kinect_pipeline.bags import BagWriter, open_bag
-from kinect_pipeline.replay import ReplayError, replay
+from kinect_pipeline.bags.reader import open_bag
+from kinect_pipeline.bags.writer import BagWriter
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
+from kinect_pipeline.tools.replay import ReplayError, replay
 
 FRAMES = 4
 RAW = "/kinect2/sd/image_depth"
@@ -60,7 +61,7 @@ def recompress(src: Path, dst: Path, fmt: str, text: str = "16UC1; compressedDep
 
 
 def kp_header(w: BagWriter, img: object) -> object:
-    from kinect_pipeline.bags import header
+    from kinect_pipeline.bags.messages import header
 
     return header(w.types, img.header.stamp, img.header.frame_id, getattr(img.header, "seq", 0))  # type: ignore[attr-defined]
 
@@ -68,7 +69,7 @@ def kp_header(w: BagWriter, img: object) -> object:
 @pytest.fixture(scope="module")
 def raw_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("raw") / "raw.bag"
-    write_sequence_bag(path, frames=FRAMES, encoding="16UC1", seed=12)
+    write_sequence_bag(path, Scenario(frames=FRAMES, encoding="16UC1", seed=12))
     return path
 
 
@@ -115,7 +116,7 @@ def test_report_calibrate_and_quality_read_compressed_depth(raw_bag: Path, tmp_p
 
 def test_float_compressed_depth_through_the_cores_encoder(tmp_path: Path) -> None:
     bag = tmp_path / "f.bag"
-    write_sequence_bag(bag, frames=3, encoding="32FC1", seed=2, compressed=True)
+    write_sequence_bag(bag, Scenario(frames=3, encoding="32FC1", seed=2, compressed=True))
     r = replay(bag, tmp_path / "o.bag", show_progress=False)
     assert r.processed == 3
     with open_bag(tmp_path / "o.bag") as out:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import FIRST_BOX, FLOOR, boxes_scene, render_frame
+from kinect_pipeline.simulation.scenes import FIRST_BOX, FLOOR, Scene, boxes_scene, render_frame
 
 HEIGHT, TILT = 1.1, 0.26
 
@@ -236,7 +236,7 @@ def test_bad_camera_is_refused(args: tuple, match: str) -> None:
 def test_confidence_of_a_beam_that_appears(cam: kp.Camera) -> None:
     """A beam that was +Inf gets intensity 1 when an obstacle appears: reported at once, never held back."""
     pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, intensity_filter=True))
-    empty = render_frame(cam, kp.scenes.Scene(), HEIGHT, TILT, 0.0, "16UC1", seed=None)
+    empty = render_frame(cam, Scene(), HEIGHT, TILT, 0.0, "16UC1", seed=None)
     full = render_frame(cam, boxes_scene(), HEIGHT, TILT, 0.0, "16UC1", seed=None)
     for _ in range(3):
         r0 = pipe.process(empty.depth)

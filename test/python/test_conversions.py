@@ -49,8 +49,8 @@ def test_camera_from_intrinsics_is_the_nodes() -> None:
 def test_the_tools_use_them(tmp_path: object) -> None:
     from types import SimpleNamespace
 
-    from kinect_pipeline.bagfile import BagError
-    from kinect_pipeline.bags import camera_from_info, depth_array
+    from kinect_pipeline.bags.messages import camera_from_info, depth_array
+    from kinect_pipeline.bags.ros1 import BagError
 
     header = SimpleNamespace(frame_id="cam")
     ros1 = SimpleNamespace(width=4, height=3, K=[0.0] * 9, header=header)

@@ -10,8 +10,8 @@ import pytest
 
 import kinect_pipeline as kp
 from kinect_pipeline.cli import main
-from kinect_pipeline.curve import compare_with_constant, curve_from_model, fit_curve, generated_floor_frames
-from kinect_pipeline.scenes import Scene, lab_scene
+from kinect_pipeline.simulation.scenes import Scene, lab_scene
+from kinect_pipeline.tools.curve import compare_with_constant, curve_from_model, fit_curve, generated_floor_frames
 
 CAM = kp.kinect_v2_camera()
 
@@ -104,7 +104,7 @@ def test_set_node_sets_the_curve_on_a_running_node(tmp_path: Path) -> None:
     if shutil.which("roscore") is None or shutil.which("roslaunch") is None:
         pytest.skip("roscore / roslaunch not installed")
     rosgraph = pytest.importorskip("rosgraph")
-    from kinect_pipeline.bench_ros import _free_port, _stop
+    from kinect_pipeline.tools.bench_ros import _free_port, _stop
 
     port = _free_port()
     uri = f"http://127.0.0.1:{port}"

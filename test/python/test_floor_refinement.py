@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.metrics import frame_quality
-from kinect_pipeline.quality import phantom_rates
-from kinect_pipeline.scenes import FIRST_BOX, Scene, lab_scene, render_frame, stair_scene
+from kinect_pipeline.evaluation.metrics import frame_quality
+from kinect_pipeline.evaluation.quality import phantom_rates
+from kinect_pipeline.simulation.scenes import FIRST_BOX, Scene, lab_scene, render_frame, stair_scene
 
 DEG = math.radians(1.0)
 #: told pose minus true: height [m], pitch [deg], roll [deg]
@@ -144,7 +144,7 @@ def test_the_cliff_of_a_stair_survives_pose_errors() -> None:
 
 def test_a_lagging_base_pitch_on_a_rocking_segway() -> None:
     """The base pitch signal 50 ms late on a Segway rocking +-4 deg once a second (25 deg/s): up to 1.3 deg off."""
-    from kinect_pipeline.quality import segway_pitch
+    from kinect_pipeline.evaluation.quality import segway_pitch
 
     cam = kp.kinect_v2_camera()
     tilt = math.radians(15)

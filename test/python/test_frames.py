@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import lab_scene, render_frame
+from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
 cv2 = pytest.importorskip("cv2")
 REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"

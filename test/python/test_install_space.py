@@ -50,7 +50,7 @@ def run(env: dict[str, str], *cmd: str) -> str:
 
 def test_python_module_and_tools_come_from_the_install_space(install_env: dict[str, str]) -> None:
     where = run(
-        install_env, "python3", "-c", "import kinect_pipeline._core as c, kinect_pipeline.demo; print(c.__file__)"
+        install_env, "python3", "-c", "import kinect_pipeline._core as c, kinect_pipeline.tools.demo; print(c.__file__)"
     )
     assert where.startswith(str(INSTALL)), where
     assert "usage: kinect-pipeline" in run(install_env, str(INSTALL / "lib/kinect_pipeline/kinect-pipeline"), "--help")

@@ -30,7 +30,7 @@ def sha(path: Path) -> str:
 @pytest.fixture(scope="module")
 def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A 16-bit PNG of a rendered floor the calibration finds."""
-    from kinect_pipeline.scenes import lab_scene, render_frame
+    from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
     path = tmp_path_factory.mktemp("frames") / "F.png"
     assert cv2.imwrite(str(path), render_frame(CAM, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=3).depth)
@@ -39,10 +39,10 @@ def frame(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from kinect_pipeline.bag import write_sequence_bag
+    from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 
     path = tmp_path_factory.mktemp("bags") / "B.bag"
-    write_sequence_bag(path, frames=3, encoding="16UC1", seed=2)
+    write_sequence_bag(path, Scenario(frames=3, encoding="16UC1", seed=2))
     return path
 
 

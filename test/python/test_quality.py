@@ -7,8 +7,8 @@ import math
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.metrics import frame_quality
-from kinect_pipeline.scenes import lab_scene, render_frame
+from kinect_pipeline.evaluation.metrics import frame_quality
+from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
 # Base pitch up to +-6 deg, roll 2 deg, on a sensor tilted down 15 deg at 1.1 m, and a low, level one.
 CONDITIONS = [
@@ -54,7 +54,7 @@ def test_surface_band_meets_the_phantom_goal_where_the_nearest_pixel_does_not() 
     """Issue #4's goal on the quality table's ground truth (every pitch condition): with surface_band 1 the floor is
     removed, obstacles kept, phantom beams <= 0.2 % and missed beams <= 1 %; the nearest-pixel default has the far
     wall's noise tail as phantoms (so the comparison has teeth)."""
-    from kinect_pipeline.quality import evaluate
+    from kinect_pipeline.evaluation.quality import evaluate
 
     rows = evaluate(frames=3)
     by = {(r.condition, r.variant): r for r in rows}

@@ -30,7 +30,8 @@ needs_real = pytest.mark.skipif(not SPOT.exists() or not KITCHEN.exists(), reaso
 
 
 def _depth(bag: Path, topic_part: str = "/depth/") -> np.ndarray:
-    from kinect_pipeline.bags import depth_array, open_bag
+    from kinect_pipeline.bags.messages import depth_array
+    from kinect_pipeline.bags.reader import open_bag
 
     with open_bag(bag) as b:
         for conn, _, raw in b.messages():
@@ -86,7 +87,7 @@ def test_intrinsics_numbers_and_a_camera_info_yaml_give_the_same_replay(tmp_path
 
 
 def _scan(bag: Path) -> np.ndarray:
-    from kinect_pipeline.bags import open_bag
+    from kinect_pipeline.bags.reader import open_bag
 
     with open_bag(bag) as b:
         for conn, _, raw in b.messages():
@@ -138,12 +139,12 @@ def test_report_and_calibrate_bag_use_the_intrinsics(tmp_path: Path) -> None:
 
 
 def test_given_intrinsics_win_over_the_bags_camera_info(tmp_path: Path) -> None:
-    from kinect_pipeline.bag import write_sequence_bag
-    from kinect_pipeline.calibrate import check_tf
     from kinect_pipeline.intrinsics import Intrinsics
+    from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
+    from kinect_pipeline.tools.calibrate import check_tf
 
     bag = tmp_path / "b.bag"
-    write_sequence_bag(bag, frames=2, encoding="16UC1", seed=4, extras=False)
+    write_sequence_bag(bag, Scenario(frames=2, encoding="16UC1", seed=4, extras=False))
     cam = kp.kinect_v2_camera()
     own = check_tf(bag)
     told = check_tf(bag, intrinsics=Intrinsics(cam.fx * 1.3, cam.fy * 1.3, cam.cx, cam.cy))
@@ -213,8 +214,8 @@ def test_report_of_a_handheld_sequence_gives_each_frame_its_own_floor(tmp_path: 
     """7-Scenes' kitchen: a handheld Kinect v1. One mean pose drew the floor as obstacles; now each frame is at
     its own floor's pose, frames with no floor of their own (counters fill them) are left out, and the floor of
     every frame reported is labelled floor."""
-    from kinect_pipeline.calibrate import calibrate, frame_paths, load_depth
-    from kinect_pipeline.report import Collected, collect_frames, floor_poses
+    from kinect_pipeline.evaluation.report import Collected, collect_frames, floor_poses
+    from kinect_pipeline.tools.calibrate import calibrate, frame_paths, load_depth
 
     files = frame_paths([KITCHEN])
     cam = _core.Camera(640, 480, 585, 585, 320, 240)
@@ -272,7 +273,7 @@ def test_report_refuses_frames_without_any_floor(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("roll_deg", [-90, -80, -45, 0, 30, 45, 60, 80, 90])
 def test_calibrate_finds_the_floor_at_any_roll_and_widening_never_loses_it(tmp_path: Path, roll_deg: float) -> None:
-    from kinect_pipeline.scenes import lab_scene, render_frame
+    from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
     cam = kp.kinect_v2_camera()
     f = render_frame(cam, lab_scene(), 1.0, 0.3, math.radians(roll_deg), "16UC1", seed=5)
@@ -301,7 +302,7 @@ def test_the_spot_camera_rolled_about_80_deg_is_found_and_a_wrong_plane_is_refus
 
 
 def test_many_weak_fits_are_one_line() -> None:
-    from kinect_pipeline.calibrate import weak_fits
+    from kinect_pipeline.tools.calibrate import weak_fits
 
     fit = {
         "floor_fraction": 0.06,
@@ -323,8 +324,8 @@ def test_a_camera_rolled_90_deg_through_the_pipeline_and_calibrate(tmp_path: Pat
     """A portrait-mounted camera: labels against the ground truth, the scan in the gravity-aligned frame against
     the true nearest obstacle, a hole seen as a cliff, and calibrate recovering the mounting, through the binding
     and the command line."""
-    from kinect_pipeline.metrics import ideal_scan, missed_beams, phantom_beams
-    from kinect_pipeline.scenes import FLOOR, KEPT, Scene, lab_scene, render_frame, truth_labels
+    from kinect_pipeline.evaluation.metrics import missed_beams, phantom_beams
+    from kinect_pipeline.simulation.scenes import FLOOR, KEPT, Scene, ideal_scan, lab_scene, render_frame, truth_labels
 
     cam = kp.kinect_v2_camera()
     roll, pitch, height = math.pi / 2, math.radians(20), 0.9
@@ -350,7 +351,7 @@ def test_a_camera_rolled_90_deg_through_the_pipeline_and_calibrate(tmp_path: Pat
     near = np.isfinite(cliff) & (np.abs(a) < 0.1)
     assert near.any() and np.all((cliff[near] > 1.4) & (cliff[near] < 2.1)), cliff[near]
     # calibrate, through the binding and the command line
-    from kinect_pipeline.calibrate import calibrate
+    from kinect_pipeline.tools.calibrate import calibrate
 
     noisy = render_frame(cam, lab_scene(), height, pitch, roll, "16UC1", seed=8)
     cal = calibrate([("f", noisy.metres.astype(np.float32))], cam)

@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("rosbags")
 
 from kinect_pipeline.cli import main
-from kinect_pipeline.regress import CASES, GOLDEN_DIR
+from kinect_pipeline.evaluation.regress import CASES, GOLDEN_DIR
 
 
 def test_golden_files_are_small_and_present() -> None:

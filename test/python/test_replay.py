@@ -14,10 +14,10 @@ import pytest
 pytest.importorskip("rosbags")
 
 import kinect_pipeline as kp
-from kinect_pipeline.bag import Rig, write_sequence_bag
 from kinect_pipeline.cli import main
-from kinect_pipeline.demo import SegwayMotion
-from kinect_pipeline.replay import ReplayError, ReplayOptions, replay
+from kinect_pipeline.simulation.robot import Rig, SegwayMotion
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
+from kinect_pipeline.tools.replay import ReplayError, ReplayOptions, replay
 
 FRAMES = 12
 
@@ -25,7 +25,7 @@ FRAMES = 12
 @pytest.fixture(scope="module")
 def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("bags") / "seq.bag"
-    write_sequence_bag(path, frames=FRAMES, encoding="16UC1", seed=3)
+    write_sequence_bag(path, Scenario(frames=FRAMES, encoding="16UC1", seed=3))
     return path
 
 
@@ -145,12 +145,12 @@ def test_synth_refuses_to_overwrite(tmp_path: Path) -> None:
     p = tmp_path / "x.bag"
     p.write_bytes(b"mine")
     with pytest.raises(FileExistsError):
-        write_sequence_bag(p, frames=1)
+        write_sequence_bag(p, Scenario(frames=1))
     assert p.read_bytes() == b"mine"
 
 
 def test_report_writes_pictures_and_an_index(bag: Path, tmp_path: Path) -> None:
-    from kinect_pipeline.report import write_report
+    from kinect_pipeline.evaluation.report import write_report
 
     summary = write_report(bag, tmp_path / "rep", show_progress=False)
     for name in ("frame.png", "scan.png", "confidence.png", "timing.png", "index.html", "quality.json"):
@@ -187,7 +187,7 @@ def long_bag(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, 
     history decides which beams are NaN, so a resumed run must restore it exactly)."""
     d = tmp_path_factory.mktemp("long")
     path = d / "long.bag"
-    write_sequence_bag(path, frames=40, encoding="16UC1", seed=5)
+    write_sequence_bag(path, Scenario(frames=40, encoding="16UC1", seed=5))
     replay(path, d / "clean.bag", ReplayOptions(config={"intensity_filter": True}), show_progress=False)
     return path, messages(d / "clean.bag")
 

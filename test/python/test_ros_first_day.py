@@ -20,7 +20,7 @@ import pytest
 from ros_graph import NODE, ROOT, RosGraph, newest, wait_for
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import boxes_scene, kinect_sigma, lab_scene, render_frame
+from kinect_pipeline.simulation.scenes import boxes_scene, kinect_sigma, lab_scene, render_frame
 
 CAM = kp.Camera(512, 424, 365.0, 365.0, 255.5, 211.5)
 HEIGHT, TILT = 1.1, 0.26

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
-from kinect_pipeline.calibrate import calibrate, load_depth
+from kinect_pipeline.tools.calibrate import calibrate, load_depth
 
 REAL = Path(__file__).resolve().parents[3] / "shared" / "data" / "real"
 
@@ -130,7 +130,7 @@ def test_calibrate_warns_when_frames_disagree_and_prints_every_pose_term() -> No
 
 
 def test_calibrate_warns_about_a_weak_fit(tmp_path: Path) -> None:
-    from kinect_pipeline.scenes import boxes_scene, render_frame
+    from kinect_pipeline.simulation.scenes import boxes_scene, render_frame
 
     cam = kp.kinect_v2_camera()
     f = render_frame(cam, boxes_scene(), 1.1, 0.05, 0.0, "32FC1", seed=3)  # looking ahead: little floor

@@ -76,7 +76,7 @@ def test_mypy_checks_calls_of_the_binding(tmp_path: Path) -> None:
 def test_result_repr_and_millimetre_floats() -> None:
     import numpy as np
 
-    from kinect_pipeline.scenes import lab_scene, render_frame
+    from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
     cam = kp.kinect_v2_camera()
     f = render_frame(cam, lab_scene(), 1.1, 0.26, 0.0, "16UC1", seed=5)

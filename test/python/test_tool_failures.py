@@ -10,13 +10,13 @@ from clitool import cli
 
 pytest.importorskip("rosbags")
 
-from kinect_pipeline.bag import write_sequence_bag
+from kinect_pipeline.simulation.sequence_bag import Scenario, write_sequence_bag
 
 
 @pytest.fixture(scope="module")
 def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("bags") / "seq.bag"
-    write_sequence_bag(path, frames=6, encoding="16UC1", seed=9)
+    write_sequence_bag(path, Scenario(frames=6, encoding="16UC1", seed=9))
     return path
 
 

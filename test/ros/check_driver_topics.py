@@ -15,7 +15,7 @@ import rostest
 from sensor_msgs.msg import CameraInfo, Image, LaserScan
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import boxes_scene, render_frame
+from kinect_pipeline.simulation.scenes import boxes_scene, render_frame
 
 DEADLINE = 30.0
 

@@ -16,8 +16,7 @@ from sensor_msgs.msg import LaserScan
 from std_srvs.srv import SetBool
 
 import kinect_pipeline as kp
-from kinect_pipeline.bag import Rig
-from kinect_pipeline.demo import SegwayMotion
+from kinect_pipeline.simulation.robot import Rig, SegwayMotion
 
 DEADLINE = 120.0
 

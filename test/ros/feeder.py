@@ -29,7 +29,7 @@ from std_msgs.msg import Float64
 from tf2_msgs.msg import TFMessage
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import Scene, boxes_scene, lab_scene, render_frame
+from kinect_pipeline.simulation.scenes import Scene, boxes_scene, lab_scene, render_frame
 
 CAM = kp.Camera(512, 424, 365.0, 365.0, 255.5, 211.5)
 OPTICAL = "kinect2_depth_optical_frame"

@@ -25,7 +25,7 @@ from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import CameraInfo, Image, Imu, LaserScan
 
 import kinect_pipeline as kp
-from kinect_pipeline.scenes import boxes_scene, render_frame
+from kinect_pipeline.simulation.scenes import boxes_scene, render_frame
 
 NODE = "/kinect2/kinect_pipeline"
 HEIGHT, TILT = 1.1, 0.26

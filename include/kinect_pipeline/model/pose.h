@@ -52,6 +52,17 @@ SensorPose poseFromOpticalTransform(const RigidTransform& base_from_optical, dou
 RigidTransform opticalFromLevel(const SensorPose& pose);
 
 /**
+ * @brief The rotation of the sensor's optical frame (x right, y down, z forward) into the gravity-aligned frame at
+ *        the sensor (x forward along the heading, y left, z up): the one place it is written out. The optical ray
+ *        (xn, yn, 1) is (1, -xn, -yn) in the sensor's x-forward, z-up frame; then roll about x, then pitch about y
+ *        (+ looks down): R = Ry(pitch) Rx(roll) S.
+ * @param pitch [rad], + looks down; @param roll [rad], + right side down
+ * @return R row-major: a level-frame vector is R times the optical one; row 2 (R[6..8]) is "up" seen in the
+ *         optical frame, column 2 (R[2], R[5], R[8]) the optical axis in the level frame
+ */
+std::array<double, 9> levelFromOptical(double pitch, double roll);
+
+/**
  * @brief The up direction in the optical frame (a unit floor normal pointing at the camera) as pitch and roll.
  * @param n unit normal (x right, y down, z forward)
  */

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "kinect_pipeline/model/pose.h"
+
 namespace kinect_pipeline
 {
 
@@ -23,17 +25,15 @@ bool PlaneModel::update(const Camera& camera, const Config& config, double heigh
 
   col_.assign(camera.width, 0.0f);
   row_.assign(camera.height, 0.0f);
-  const double sp = std::sin(pitch), cp = std::cos(pitch);
   floor_offset_ = static_cast<float>(height_);
   if (geometry == Geometry::kExact)
   {
-    // The ray (xn, yn, 1) in the optical frame is (1, -xn, -yn) in the sensor's x-forward, z-up frame;
-    // rotated by roll about x, then pitch about y, its z (up) component is the rise per metre of depth.
-    const double sr = std::sin(roll), cr = std::cos(roll);
+    // The z (up) component of the ray (xn, yn, 1) in the level frame is the rise per metre of depth.
+    const std::array<double, 9> m = levelFromOptical(pitch, roll);
     for (int u = 0; u < camera.width; ++u)
-      col_[u] = static_cast<float>(-cp * sr * (u - camera.cx) / camera.fx);
+      col_[u] = static_cast<float>(m[6] * (u - camera.cx) / camera.fx);
     for (int r = 0; r < camera.height; ++r)
-      row_[r] = static_cast<float>(-sp - cp * cr * (r - camera.cy) / camera.fy);
+      row_[r] = static_cast<float>(m[8] + m[7] * (r - camera.cy) / camera.fy);
     ceiling_offset_ = static_cast<float>(ceiling_ - height_);
   }
   else
@@ -41,7 +41,7 @@ bool PlaneModel::update(const Camera& camera, const Config& config, double heigh
     // Thesis eq 4.10-4.18: z = c / (tan(theta_pixel) + tan(pitch)) with c = cos(pitch) * h, expressed as
     // a rise per metre s = -(tan(theta_pixel) + tan(pitch)) / cos(pitch) so one kernel serves both modes.
     const double vfov = camera.vfov();
-    const double tp = std::tan(pitch);
+    const double tp = std::tan(pitch), cp = std::cos(pitch);
     for (int r = 0; r < camera.height; ++r)
     {
       const double theta = (r - 0.5 * camera.height) / camera.height * vfov;

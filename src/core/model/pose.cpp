@@ -139,6 +139,14 @@ RigidTransform opticalFromLevel(const SensorPose& pose)
   return opticalFromBody() * level_from_body.inverse();
 }
 
+std::array<double, 9> levelFromOptical(double pitch, double roll)
+{
+  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
+  return {-sp * sr, -sp * cr, cp,  //
+          -cr, sr, 0.0,            //
+          -cp * sr, -cp * cr, -sp};
+}
+
 void pitchRollFromUp(const double n[3], double& pitch, double& roll)
 {
   pitch = std::asin(std::max(-1.0, std::min(1.0, -n[2])));

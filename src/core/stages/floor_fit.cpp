@@ -49,22 +49,6 @@ constexpr double kMinShift = 0.1;
 constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
 constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
 
-/** Row-major rotation of optical-frame vectors into the gravity-aligned frame at the sensor (x fwd, z up). */
-std::array<double, 9> opticalToLevel(double pitch, double roll)
-{
-  // The optical ray (xn, yn, 1) is (1, -xn, -yn) in the sensor's x-forward z-up frame; then roll about x, then
-  // pitch about y (+ looks down): R = Ry(pitch) Rx(roll) S, as PlaneModel and renderScene.
-  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-  const double rot[9] = {cp, sp * sr, sp * cr, 0.0, cr, -sr, -sp, cp * sr, cp * cr};  // Ry Rx
-  const double s[9] = {0, 0, 1, -1, 0, 0, 0, -1, 0};
-  std::array<double, 9> m{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        m[3 * i + j] += rot[3 * i + k] * s[3 * k + j];
-  return m;
-}
-
 bool poseIsValid(const SensorPose& p, const Config& c)
 {
   return std::isfinite(p.height) && p.height > 0.0 && p.height < c.ceiling_height && std::fabs(p.pitch) <= kHalfPi &&
@@ -160,7 +144,7 @@ SensorPose poseFromFloorPlane(const SensorPose& prior, double a, double b, doubl
   // The plane's upward unit normal in the level frame, then in the optical frame (R^T n).
   const double norm = std::sqrt(1.0 + b * b + c * c);
   const double n_level[3] = {-b / norm, -c / norm, 1.0 / norm};
-  const std::array<double, 9> m = opticalToLevel(prior.pitch, prior.roll);
+  const std::array<double, 9> m = levelFromOptical(prior.pitch, prior.roll);
   double n_opt[3];
   for (int j = 0; j < 3; ++j)
     n_opt[j] = m[j] * n_level[0] + m[3 + j] * n_level[1] + m[6 + j] * n_level[2];
@@ -197,7 +181,7 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
   col_z_.resize(cam.width);
   // The ray of pixel (u, r) in the level frame is a column term (xn times the rotation's first column) plus a row
   // term (yn times the second, plus the third).
-  const std::array<double, 9> m = opticalToLevel(prior.pitch, prior.roll);
+  const std::array<double, 9> m = levelFromOptical(prior.pitch, prior.roll);
   for (int u = 0; u < cam.width; ++u)
   {
     const double xn = (u - cam.cx) / cam.fx;

@@ -208,7 +208,7 @@ def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positiona
 def frame_files(items: Iterable[str], command: str = "") -> list[Path]:
     """The frames named: files as given, folders as their depth frames in name order (colour images in them
     skipped, one line on stderr per folder saying how many, when ``command`` names the command)."""
-    from ..calibrate import frame_paths
+    from ..tools.calibrate import frame_paths
 
     skipped: list[str] = []
     try:

@@ -30,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bench_ros import report, run
+    from ..tools.bench_ros import report, run
 
     if args.sequential:
         results = [m for s in ("relay", "node", "nodelet") for m in run(args.frames, args.rate, args.threads, s)]

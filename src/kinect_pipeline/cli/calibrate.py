@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
             "give depth frames and --intrinsics FX FY CX CY (or --sensor-model NAME), or --bag BAG to check its tf "
             "against the floor"
         )
-    from ..calibrate import CalibrationError, calibrate, load_depth
+    from ..tools.calibrate import CalibrationError, calibrate, load_depth
 
     files = frame_files(args.files, NAME)
     check([*map(Path, args.files), *files], [named("--plot", args.plot)])
@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         raise ToolError(str(exc)) from exc
     d = result.as_dict(args.base_frame, args.optical_frame)
     if args.plot and result.found:
-        from ..calibrate import plot_calibration
+        from ..tools.calibrate import plot_calibration
 
         plot_calibration(frames[0][1], cam, result, Path(args.plot), Path(frames[0][0]).name)
     if args.json:
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_bag(args: argparse.Namespace) -> int:
     """calibrate --bag: the tf-provided pose against the floor seen in each frame."""
-    from ..calibrate import CalibrationError, check_tf, describe_tf_check, plot_tf_check
+    from ..tools.calibrate import CalibrationError, check_tf, describe_tf_check, plot_tf_check
 
     if args.files:
         raise ToolError(f"--bag checks a bag: give no frame files as well (got {' '.join(args.files)})")

@@ -20,7 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cliff import EDGE, STEP, evaluate, picture, table
+    from ..evaluation.cliff import EDGE, STEP, evaluate, picture, table
 
     rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
     print(

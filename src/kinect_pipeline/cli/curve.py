@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from ._common import ToolError, add_frames, check, frame_files, frames_camera, named
 
 if TYPE_CHECKING:
-    from ..curve import CurveFit
+    from ..tools.curve import CurveFit
 
 NAME = "curve"
 HELP = "threshold curve t(d) from floor frames (or a noise model) -> YAML, plot; --compare: against constant margins"
@@ -50,8 +50,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _fit(args: argparse.Namespace) -> CurveFit:
-    from ..calibrate import load_depth
-    from ..curve import curve_from_model, fit_curve, generated_floor_frames
+    from ..tools.calibrate import load_depth
+    from ..tools.curve import curve_from_model, fit_curve, generated_floor_frames
 
     if args.from_model:
         return curve_from_model(args.from_model[0], args.from_model[1], args.rate, args.margin)
@@ -71,8 +71,8 @@ def _fit(args: argparse.Namespace) -> CurveFit:
 
 def run(args: argparse.Namespace) -> int:
     from .. import _core
-    from ..calibrate import CalibrationError
-    from ..curve import describe, plot, set_live, write_yaml
+    from ..tools.calibrate import CalibrationError
+    from ..tools.curve import describe, plot, set_live, write_yaml
 
     outputs = [named("-o", args.output), named("--plot", args.plot), named("--compare-plot", args.compare_plot)]
     check([*map(Path, args.files), *frame_files(args.files)], outputs)
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace, fit: CurveFit) -> None:
-    from ..curve import compare_with_constant, comparison_table, plot_comparison
+    from ..tools.curve import compare_with_constant, comparison_table, plot_comparison
 
     cmp = compare_with_constant(fit, frames=args.compare_frames)
     print(

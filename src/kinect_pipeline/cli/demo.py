@@ -20,10 +20,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bag import write_sequence_bag
-    from ..demo import run_demo
-    from ..replay import format_report, partial_path, replay
-    from ..report import write_report
+    from ..evaluation.report import write_report
+    from ..simulation.sequence_bag import Scenario, write_sequence_bag
+    from ..tools.demo import run_demo
+    from ..tools.replay import format_report, partial_path, replay
 
     with output_folder(Path(args.out)) as out:
         summary = run_demo(out, frames=args.frames, encoding=args.encoding, seed=args.seed)
@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
         bag, replayed = out / "demo.bag", out / "demo_replayed.bag"
         for p in (bag, replayed, partial_path(replayed)):  # the demo's own outputs of an earlier run
             p.unlink(missing_ok=True)
-        write_sequence_bag(bag, frames=args.frames, encoding=args.encoding, seed=args.seed)
+        write_sequence_bag(bag, Scenario(frames=args.frames, encoding=args.encoding, seed=args.seed))
         print(format_report(replay(bag, replayed, show_progress=True)))
         report = write_report(replayed, out / "report", show_progress=True)
     print(json.dumps({k: v for k, v in report.items() if k != "pictures"}, indent=1))

@@ -17,7 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..quality import default_config_table
+    from ..evaluation.quality import default_config_table
 
     print(default_config_table(args.frames, args.height, args.pitch, args.encodings))
     return 0

@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..quality import evaluate, table
+    from ..evaluation.quality import evaluate, table
 
     if args.bag:
         return _run_bag(args)
@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
         "Kinect noise + dropouts + flying pixels + 8 m range; means over frames:"
     )
     print(table(rows))
-    from ..quality import evaluate_pose_errors, pose_table
+    from ..evaluation.quality import evaluate_pose_errors, pose_table
 
     pose_rows = evaluate_pose_errors(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
     print(
@@ -51,8 +51,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_bag(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..quality import bag_quality
-    from ..replay import ReplayError
+    from ..evaluation.quality import bag_quality
+    from ..tools.replay import ReplayError
     from .replay import bag_options
 
     opts = bag_options(args)

@@ -19,7 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..regress import regress
+    from ..evaluation.regress import regress
 
     lines, problems = regress(update=args.update, config_override=parse_params(args.param))
     print("\n".join(lines))

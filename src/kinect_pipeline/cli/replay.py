@@ -43,7 +43,7 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
 
 def bag_options(args: argparse.Namespace, **more: object) -> Any:
     """ReplayOptions of the options add_bag_topics, --param and --sensor-model gave."""
-    from ..replay import ReplayOptions
+    from ..tools.replay import ReplayOptions
 
     config = with_sensor_model(parse_params(args.param), getattr(args, "sensor_model", None))
     intr = intrinsics_of(args)
@@ -101,7 +101,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..replay import ReplayError, format_report, partial_path, replay
+    from ..tools.replay import ReplayError, format_report, partial_path, replay
 
     opts = bag_options(args, pose_fallback=args.pose_fallback, skip_bad=args.skip_bad, format=args.format)
     inp, out = Path(args.input), Path(args.output)

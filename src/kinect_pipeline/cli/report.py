@@ -33,9 +33,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..calibrate import CalibrationError, is_frames, load_depth
-    from ..replay import ReplayError
-    from ..report import FILES, write_report
+    from ..evaluation.report import FILES, write_report
+    from ..tools.calibrate import CalibrationError, is_frames, load_depth
+    from ..tools.replay import ReplayError
 
     items, out = [Path(p) for p in args.input], Path(args.out)
     check(items, [Named(out / f, "-o") for f in FILES], [Named(out, "-o")])

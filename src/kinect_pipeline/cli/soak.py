@@ -17,7 +17,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bench_ros import run, soak_report
+    from ..tools.bench_ros import run, soak_report
 
     frames = int(args.minutes * 60 * args.rate)
     results = run(frames=frames, rate=args.rate, threads=args.threads, only=args.subject)

@@ -34,17 +34,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..bag import write_sequence_bag
+    from ..simulation.sequence_bag import Scenario, write_sequence_bag
 
     check([], [named("output", args.output)])
-    summary = write_sequence_bag(
-        Path(args.output),
-        frames=args.frames,
-        encoding=args.encoding,
-        seed=args.seed,
-        show_progress=not args.quiet,
-        tf_error=(args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll)),
-        fmt=args.format,
-    )
+    tf_error = (args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll))
+    scenario = Scenario(frames=args.frames, encoding=args.encoding, seed=args.seed, tf_error=tf_error)
+    summary = write_sequence_bag(Path(args.output), scenario, fmt=args.format, show_progress=not args.quiet)
     print(json.dumps(summary))
     return 0

@@ -5,6 +5,7 @@
 #include "base/simd.h"
 
 #include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/pose.h"
 
 #include <algorithm>
 #include <cmath>
@@ -103,14 +104,14 @@ void ScanProjector::setPose(double pitch, double roll)
 {
   if (projection_ == Projection::kColumn)
     return;
-  // The ray (1, -xn, -yn) of the sensor frame rotated by roll about x, then pitch about y (see PlaneModel).
-  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = std::sin(roll), cr = std::cos(roll);
-  ax_ = static_cast<float>(-sp * sr);
-  ay_ = static_cast<float>(-cr);
+  // The ray (xn, yn, 1) in the level frame: x = ax xn + bx[r], y = ay xn + by[r].
+  const std::array<double, 9> m = levelFromOptical(pitch, roll);
+  ax_ = static_cast<float>(m[0]);
+  ay_ = static_cast<float>(m[3]);
   for (int r = 0; r < height_; ++r)
   {
-    bx_[r] = static_cast<float>(cp - sp * cr * yn_[r]);
-    by_[r] = static_cast<float>(sr * yn_[r]);
+    bx_[r] = static_cast<float>(m[2] + m[1] * yn_[r]);
+    by_[r] = static_cast<float>(m[4] * yn_[r]);
   }
   // Each border's crossing terms (see crossing()): the denominator depends on the pose, not on the row.
   const double ax = ax_, ay = ay_, fx = fx_;

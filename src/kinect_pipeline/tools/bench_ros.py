@@ -16,8 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from . import kinect_v2_camera
-from .scenes import lab_scene, render_frame
+from .. import kinect_v2_camera
+from ..simulation.scenes import lab_scene, render_frame
 
 
 @dataclass

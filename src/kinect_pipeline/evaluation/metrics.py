@@ -6,10 +6,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from . import _core
-from .scenes import FIRST_BOX, FLOOR, NOTHING, Frame
-
-KEPT = _core.LABELS["kept"]
+from .. import _core
+from ..simulation.scenes import FIRST_BOX, FLOOR, KEPT, NOTHING, Frame, ideal_scan
 
 
 @dataclass
@@ -26,20 +24,6 @@ class FrameQuality:
 
     def as_dict(self) -> dict[str, float]:
         return {k: float(v) for k, v in asdict(self).items()}
-
-
-def ideal_scan(
-    truth: dict[str, np.ndarray], angle_min: float, angle_increment: float, beams: int, mask: np.ndarray
-) -> np.ndarray:
-    """Nearest true horizontal range per beam over the pixels in ``mask`` (binned by the hit's bearing);
-    +Inf where none."""
-    out = np.full(beams, np.inf)
-    angle = truth["angle"][mask].astype(np.float64)
-    rng = truth["range"][mask].astype(np.float64)
-    idx = np.floor((angle - (angle_min - 0.5 * angle_increment)) / angle_increment).astype(np.int64)
-    ok = (idx >= 0) & (idx < beams)
-    np.minimum.at(out, idx[ok], rng[ok])
-    return out
 
 
 def phantom_beams(ranges: np.ndarray, real: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,28 +15,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from . import _core
-from .bagfile import Bag, BagError, Damage
-from .bags import (
-    IMAGE,
-    LASER_SCAN,
-    ROS1,
-    BagReader,
-    BagWriter,
-    Cameras,
-    TfBuffer,
-    depth_array,
-    header,
-    image_message,
-    image_topic_of,
-    open_bag,
-    output_format,
-    pick_topics,
-    read_tf,
-    stamp,
-)
-from .intrinsics import Intrinsics
-from .outputs import OutputError, check_outputs
+from .. import _core
+from ..bags.messages import IMAGE, LASER_SCAN, depth_array, header, image_message, stamp
+from ..bags.reader import ROS1, BagReader, Cameras, image_topic_of, open_bag, pick_topics
+from ..bags.ros1 import Bag, BagError, Damage
+from ..bags.tf import TfBuffer, read_tf
+from ..bags.writer import BagWriter, output_format
+from ..intrinsics import Intrinsics
+from ..outputs import OutputError, check_outputs
 
 ReplayError = BagError  #: a bag or an option the replay cannot use; the message says which and why
 
@@ -266,14 +252,14 @@ class _Earlier:
         return self.bag.read(e)
 
     def meta(self) -> dict[str, Any] | None:
-        from .bags import _typestore
+        from ..bags.messages import typestore
 
         head = self.peek()
         if head is None or head[0] != META_TOPIC:
             return None
         raw = self.take()
         try:
-            return dict(json.loads(_typestore(False).deserialize_ros1(raw, STRING).data))
+            return dict(json.loads(typestore(False).deserialize_ros1(raw, STRING).data))
         except (ValueError, TypeError, KeyError):
             return None
 
@@ -475,7 +461,7 @@ class _Run:
         meta_msg = ts.types[STRING](data=json.dumps(self.meta, sort_keys=True))
         it: Iterator[Any] = self.bag.records(on_damage=self.damaged)
         if show_progress:
-            from .demo import progress
+            from ..outputs import progress
 
             it = _progress_frames(it, r.depth_topic, total, progress)
         first = True
@@ -634,10 +620,10 @@ def _floor_record(res: Any, pipe: Any) -> str:
 
 def _floor_state(raw: bytes) -> tuple[Any, ...] | None:
     """The state a floor record of a ROS 1 output holds, None if it cannot be read."""
-    from .bags import _typestore
+    from ..bags.messages import typestore
 
     try:
-        state = json.loads(_typestore(False).deserialize_ros1(raw, STRING).data)["state"]
+        state = json.loads(typestore(False).deserialize_ros1(raw, STRING).data)["state"]
         return tuple(None if v is None else float(v) for v in state)
     except (ValueError, TypeError, KeyError):
         return None

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import _core
+from .. import _core
 
 Box = tuple[float, float, float, float, float, float]
 Hole = tuple[float, float, float, float]
@@ -167,4 +167,18 @@ def truth_labels(truth: dict[str, np.ndarray], ceiling_height: float = 2.0) -> n
     out[obj == FLOOR] = FLOOR_LABEL
     out[obj == HOLE] = BELOW_FLOOR
     out[(obj != NOTHING) & (obj != FLOOR) & (obj != HOLE) & (height > ceiling_height)] = ABOVE_CEILING
+    return out
+
+
+def ideal_scan(
+    truth: dict[str, np.ndarray], angle_min: float, angle_increment: float, beams: int, mask: np.ndarray
+) -> np.ndarray:
+    """Nearest true horizontal range per beam over the pixels in ``mask`` (binned by the hit's bearing);
+    +Inf where none."""
+    out = np.full(beams, np.inf)
+    angle = truth["angle"][mask].astype(np.float64)
+    rng = truth["range"][mask].astype(np.float64)
+    idx = np.floor((angle - (angle_min - 0.5 * angle_increment)) / angle_increment).astype(np.int64)
+    ok = (idx >= 0) & (idx < beams)
+    np.minimum.at(out, idx[ok], rng[ok])
     return out

@@ -10,10 +10,11 @@ from typing import Any
 
 import numpy as np
 
-from . import _core, kinect_v2_camera
-from .demo import SegwayMotion, progress
-from .metrics import ideal_scan, missed_beams, phantom_beams
-from .scenes import FIRST_BOX, FLOOR, Scene, lab_scene, render_frame
+from .. import _core, kinect_v2_camera
+from ..outputs import progress
+from ..simulation.robot import SegwayMotion
+from ..simulation.scenes import FIRST_BOX, FLOOR, Scene, ideal_scan, lab_scene, render_frame
+from .metrics import missed_beams, phantom_beams
 
 HEIGHT, TILT = 1.1, math.radians(15.0)
 
@@ -342,7 +343,7 @@ def bag_quality(bag: Any, opts: Any = None, show_progress: bool = False) -> dict
     """The replay of a bag with the generator's ground truth (``/ground_truth/scan``, ``/ground_truth/labels``)
     scored against it, as ``report``'s quality.json: phantom and missed beams (fractions of all beams) and the
     labels' agreement. A bag without ground truth raises ReplayError."""
-    from .replay import ReplayError, ReplayOptions
+    from ..tools.replay import ReplayError, ReplayOptions
     from .report import GT_SCAN, collect, truth_quality
 
     c = collect(bag, opts or ReplayOptions(), show_progress)

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
+from .. import _core
+from ..outputs import write_text
 from .calibrate import calibrate
-from .outputs import write_text
 
 DEPTHS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0)
 
@@ -122,7 +122,7 @@ def plot(fit: CurveFit, current: list[tuple[float, float]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .outputs import save_figure
+    from ..outputs import save_figure
 
     fig, ax = plt.subplots(figsize=(8, 5))
     if fit.residuals is not None:
@@ -218,9 +218,9 @@ class _Rendered:
 
 def render_noisy_frames(frames: int = 12, encoding: str = "16UC1", seed: int = 31) -> list[_Rendered]:
     """The quality table's lab scene on the pitching Segway (Kinect v2 noise, dropouts, flying pixels, 8 m range)."""
-    from . import kinect_v2_camera
-    from .quality import CONDITIONS, HEIGHT, HEIGHT_CLASSES, TILT
-    from .scenes import FIRST_BOX, FLOOR, lab_scene, render_frame
+    from .. import kinect_v2_camera
+    from ..evaluation.quality import CONDITIONS, HEIGHT, HEIGHT_CLASSES, TILT
+    from ..simulation.scenes import FIRST_BOX, FLOOR, lab_scene, render_frame
 
     cam = kinect_v2_camera()
     out = []
@@ -237,8 +237,8 @@ def render_noisy_frames(frames: int = 12, encoding: str = "16UC1", seed: int = 3
 
 def score_curve(name: str, curve: str, rendered: list[_Rendered]) -> CurveScore:
     """Runs the pipeline (default config, this threshold curve, the base pitch given) over the rendered frames."""
-    from . import kinect_v2_camera
-    from .quality import HEIGHT, TILT, phantom_rates
+    from .. import kinect_v2_camera
+    from ..evaluation.quality import HEIGHT, TILT, phantom_rates
 
     pipe = _core.Pipeline(
         kinect_v2_camera(), _core.Config(sensor_height=HEIGHT, sensor_pitch=TILT, threshold_curve=curve)
@@ -319,8 +319,8 @@ def compare_with_constant(fit: CurveFit, frames: int = 12, encoding: str = "16UC
 
 def generated_floor_frames(n: int = 3, scene: Any = None) -> list[tuple[str, np.ndarray]]:
     """Rendered Kinect v2 frames (float metres, 0 = unknown) of a floor seen from 1.1 m at 17 deg, for fitting."""
-    from . import kinect_v2_camera
-    from .scenes import Scene, render_frame
+    from .. import kinect_v2_camera
+    from ..simulation.scenes import Scene, render_frame
 
     out = []
     for i in range(n):
@@ -351,7 +351,7 @@ def plot_comparison(scores: list[CurveScore], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .outputs import save_figure
+    from ..outputs import save_figure
 
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5))
     d = np.linspace(0.5, 8.0, 200)

@@ -18,12 +18,14 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
-from .bags import LASER_SCAN, depth_frames, open_bag, read_side, read_tf, stamp
-from .demo import plot_frame
+from .. import _core
+from ..bags.messages import LASER_SCAN, stamp
+from ..bags.reader import depth_frames, open_bag, read_side
+from ..bags.tf import read_tf
+from ..figures import plot_frame
+from ..outputs import check_outputs, output_folder, save_figure, write_text
+from ..tools.replay import ReplayError, ReplayOptions
 from .metrics import missed_beams, phantom_beams
-from .outputs import check_outputs, output_folder, save_figure, write_text
-from .replay import ReplayError, ReplayOptions
 
 #: Everything a report may write into its folder.
 FILES = ("frame.png", "scan.png", "confidence.png", "timing.png", "quality.json", "index.html")
@@ -172,7 +174,7 @@ def _own_floor(
     depth: np.ndarray, cam: Any, max_depth: float, name: str, out: Collected
 ) -> tuple[float, float, float] | None:
     """The pose of the floor seen in a frame of a bag, None where there is none (its warnings to out.problems)."""
-    from .calibrate import calibrate, depth_metres
+    from ..tools.calibrate import calibrate, depth_metres
 
     cal = calibrate([(name, depth_metres(depth, 0.001, max_depth, name))], cam)
     out.problems += cal.warnings
@@ -210,7 +212,7 @@ def collect_frames(
     sensor_height / sensor_pitch / sensor_roll where it gives one, else at the pose calibrated from the frames'
     floor: one pose for frames that agree (a sensor standing still), each frame's own where they disagree (a
     moving camera; frames without a floor of their own are then left out, and none left is an error)."""
-    from .calibrate import CalibrationError, load_depth
+    from ..tools.calibrate import CalibrationError, load_depth
 
     config = dict(config or {})
     out = Collected(f"{len(files)} depth frame(s): {files[0]}{' ...' if len(files) > 1 else ''}")
@@ -229,7 +231,7 @@ def collect_frames(
     runner = _Runner(config, out)
     items: Any = list(zip(frames, poses, strict=True))
     if show_progress:
-        from .demo import progress
+        from ..outputs import progress
 
         items = progress(items, len(items), "report")
     for i, ((name, metres), pose) in enumerate(items):
@@ -250,7 +252,7 @@ def floor_poses(
     camera moved: the mean would be no frame's pose and draw the floor as obstacles), each frame's own, None for a
     frame without a floor of its own. Says which in ``out.pose_note``; the calibration's warnings go to
     ``out.problems``. No floor anywhere raises CalibrationError."""
-    from .calibrate import CalibrationError, calibrate, disagreement
+    from ..tools.calibrate import CalibrationError, calibrate, disagreement
 
     cal = calibrate(frames, camera)
     if not cal.found:
@@ -300,7 +302,7 @@ def write_report(
     ground truth) into ``out_dir``. ``source``: a bag of any kind, or depth frames (files or folders of them: then
     ``camera`` is needed). Nothing is written when the input cannot be used, and none of the report's files may be
     an input."""
-    from .calibrate import frame_paths, is_frames
+    from ..tools.calibrate import frame_paths, is_frames
 
     opts = opts or ReplayOptions()
     out_dir = Path(out_dir)

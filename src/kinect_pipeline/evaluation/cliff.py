@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import _core, kinect_v2_camera
-from .demo import plot_frame, progress
-from .outputs import save_figure
+from .. import _core, kinect_v2_camera
+from ..figures import plot_frame
+from ..outputs import progress, save_figure
+from ..simulation.scenes import Scene, hole_scene, render_frame, stair_scene
 from .quality import CONDITIONS
-from .scenes import Scene, hole_scene, render_frame, stair_scene
 
 HEIGHT, TILT = 1.1, 0.3
 EDGE, STEP = 2.5, 0.17

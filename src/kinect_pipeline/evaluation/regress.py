@@ -13,12 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from .bag import write_sequence_bag
-from .outputs import atomic_file
-from .replay import ReplayOptions
+from ..outputs import atomic_file
+from ..simulation.sequence_bag import Scenario, write_sequence_bag
+from ..tools.replay import ReplayOptions
 from .report import collect
 
-GOLDEN_DIR = Path(__file__).resolve().parents[2] / "test" / "golden"
+GOLDEN_DIR = Path(__file__).resolve().parents[3] / "test" / "golden"
 
 
 @dataclass(frozen=True)
@@ -58,7 +58,7 @@ EXACT = {"range_m": 0.0, "intensity": 0.0, "labels_changed": 0.0}
 def run_case(case: Case, config_override: dict[str, Any] | None = None) -> dict[str, np.ndarray]:
     with tempfile.TemporaryDirectory(prefix="kp-regress-") as tmp:
         bag = Path(tmp) / f"{case.name}.bag"
-        write_sequence_bag(bag, frames=case.frames, encoding=case.encoding, seed=case.seed)
+        write_sequence_bag(bag, Scenario(frames=case.frames, encoding=case.encoding, seed=case.seed))
         config = dict(case.config)
         config.update(config_override or {})
         c = collect(bag, ReplayOptions(config=config), show_progress=False, keep_labels=True)

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core
+from .. import _core
 
 
 class CalibrationError(ValueError):
@@ -163,7 +163,7 @@ class Calibration:
 def plot_calibration(metres: np.ndarray, camera: _core.Camera, result: Calibration, path: Path, name: str) -> None:
     """The frame's depth and, under the calibrated pose, the floor the pipeline then removes (green): where the
     calibration is right, the floor is green up to the walls and nothing stands on it."""
-    from .demo import plot_frame
+    from ..figures import plot_frame
 
     cfg = _core.Config(
         sensor_height=result.height,
@@ -395,7 +395,10 @@ def check_tf(
     without tf keep their floor's pose (a bag without tf: the floor's pose per frame). The camera: ``intrinsics``
     (:class:`kinect_pipeline.intrinsics.Intrinsics`) where given, else the camera_info of each frame's stamp, else
     ``sensor_model``'s nominal camera (with a warning)."""
-    from .bags import BagError, Cameras, depth_frames, open_bag, pick_topics, read_tf, stamp
+    from ..bags.messages import stamp
+    from ..bags.reader import Cameras, depth_frames, open_bag, pick_topics
+    from ..bags.ros1 import BagError
+    from ..bags.tf import read_tf
 
     if not isinstance(bag, (str, Path)):
         raise TypeError(f"bag: {type(bag).__name__}, expected a path")
@@ -481,7 +484,7 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from .outputs import save_figure
+    from ..outputs import save_figure
 
     good = [f for f in check.frames if f["found"] and "diff_height" in f]
     floors = [f for f in check.frames if f["found"]]
