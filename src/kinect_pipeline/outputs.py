@@ -108,6 +108,19 @@ def _as_users(tmp: Path, path: Path) -> Iterator[None]:
         raise
 
 
+def _umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def as_user_file(path: Path) -> None:
+    """Gives ``path`` the mode any file the user writes gets (0666 less the umask: 0644 as a rule), not the 0600 of
+    a temporary file."""
+    os.chmod(path, 0o666 & ~_umask())
+
+
 def temporary_name(path: Path, tag: str = "tmp") -> Path:
     """A hidden name beside ``path`` for writing it (unique per process)."""
     return path.with_name(f".{path.name}.{tag}-{os.getpid()}")
@@ -117,8 +130,8 @@ def temporary_name(path: Path, tag: str = "tmp") -> Path:
 def atomic_file(path: PathLike, keep_suffix: bool = True) -> Iterator[Path]:
     """Yields a temporary path beside ``path`` to write; on success it is renamed to ``path`` (which then appears
     whole or not at all), on failure removed. ``keep_suffix``: the temporary ends as ``path`` does (for writers
-    that choose the format by the suffix, as matplotlib and OpenCV do). An error names ``path``, never the
-    temporary."""
+    that choose the format by the suffix, as matplotlib and OpenCV do). The file gets the mode of any file the user
+    writes (0644 under the usual umask), not the temporary's 0600. An error names ``path``, never the temporary."""
     path = Path(_named(path).path)
     fd, name = tempfile.mkstemp(
         prefix=f".{path.name}.", suffix=(path.suffix if keep_suffix else ".tmp"), dir=path.parent or Path(".")
@@ -128,6 +141,7 @@ def atomic_file(path: PathLike, keep_suffix: bool = True) -> Iterator[Path]:
     try:
         with _as_users(tmp, path):
             yield tmp
+            as_user_file(tmp)
             os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)

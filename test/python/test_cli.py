@@ -109,4 +109,4 @@ def test_bad_intrinsics_name_the_option(
         rc = main([cmd, str(f), "--intrinsics", *intr])
         err = capsys.readouterr().err.strip()
         assert rc == 1 and len(err.splitlines()) == 1, err
-        assert err.startswith(f"kinect-pipeline {cmd}: --intrinsics {' '.join(intr)}: ") and expect in err, err
+        assert err.startswith(f"kinect-pipeline {cmd}: --intrinsics {','.join(intr)}: ") and expect in err, err

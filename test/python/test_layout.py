@@ -17,6 +17,7 @@ FORBIDDEN = {
     "evaluation": {"cli"},
     "tools": {"cli"},
     "outputs": {"bags", "simulation", "evaluation", "tools", "cli", "figures"},
+    "intrinsics": {"bags", "simulation", "evaluation", "tools", "cli", "figures", "outputs"},
     "figures": {"bags", "simulation", "evaluation", "tools", "cli"},
 }
 

@@ -173,6 +173,31 @@ def test_atomic_file_appears_whole_or_not_at_all(tmp_path: Path) -> None:
     assert target.read_bytes() == b"new" and sorted(tmp_path.iterdir()) == [target]
 
 
+@pytest.mark.parametrize("umask", [0o022, 0o027])
+def test_outputs_get_the_mode_of_any_file_the_user_writes(frame: Path, bag: Path, tmp_path: Path, umask: int) -> None:
+    """Outputs are 0666 less the umask (0644 as a rule), as a shell redirect or cp makes them: never the 0600 of
+    the temporary file they are written to first."""
+    old = os.umask(umask)
+    try:
+        runs = [
+            ["report", str(bag), "-o", str(tmp_path / "rep"), "--quiet"],
+            ["replay", str(bag), "-o", str(tmp_path / "r.bag"), "--quiet"],
+            ["calibrate", str(frame), "--intrinsics", *INTR, "--plot", str(tmp_path / "cal.png")],
+            ["curve", str(frame), "--intrinsics", *INTR, "-o", str(tmp_path / "c.yaml")],
+        ]
+        for args in runs:
+            r = cli(*args)
+            assert r.returncode == 0, (args, r.stderr)
+        with atomic_file(tmp_path / "direct.txt") as tmp:
+            tmp.write_text("x")
+    finally:
+        os.umask(old)
+    files = [p for p in tmp_path.rglob("*") if p.is_file()]
+    assert len(files) >= 9, files
+    modes = {p.relative_to(tmp_path).as_posix(): oct(p.stat().st_mode & 0o777) for p in files}
+    assert set(modes.values()) == {oct(0o666 & ~umask)}, modes
+
+
 def test_atomic_new_gives_a_fresh_path_and_renames_folders(tmp_path: Path) -> None:
     target = tmp_path / "bag2"
     with atomic_new(target) as tmp:

@@ -126,7 +126,7 @@ def test_damaged_bytes_name_where_and_skip_bad_goes_on(bag: Path, tmp_path: Path
 def test_missing_topics_are_named(tmp_path: Path, bag: Path) -> None:
     with pytest.raises(ReplayError, match="--depth-topic /nope"):
         replay(bag, tmp_path / "x.bag", ReplayOptions(depth_topic="/nope"), show_progress=False)
-    with pytest.raises(ReplayError, match="camera_info topic /a/camera_info"):
+    with pytest.raises(ReplayError, match="--info-topic /a/camera_info: not in the bag"):
         replay(bag, tmp_path / "y.bag", ReplayOptions(info_topic="/a/camera_info"), show_progress=False)
     with pytest.raises(ReplayError, match="no such bag"):
         replay(tmp_path / "none.bag", tmp_path / "z.bag", show_progress=False)

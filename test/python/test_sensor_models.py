@@ -95,8 +95,9 @@ def test_cli_sensor_model_gives_typical_intrinsics_and_bad_names_are_one_line() 
     r = cli("calibrate", str(path), "--sensor-model", "kinect_v1", "--depth-scale", "0.0002", "--json")
     assert r.returncode == 0, r.stderr
     assert 1.5 < json.loads(r.stdout)["height"] < 2.0
+    assert "WARNING: no camera intrinsics given: the nominal camera of --sensor-model kinect_v1" in r.stderr
     r = cli("calibrate", str(path), "--sensor-model", "realsense_d4xx", "--depth-scale", "0.0002")
-    assert r.returncode == 1 and "typical intrinsics are for 848x480, the frames are 640x480" in r.stderr
+    assert r.returncode == 1 and "nominal camera is 848x480, the depth images are 640x480" in r.stderr
     r = cli("replay", "x.bag", "-o", "y.bag", "--param", "sensor_model=kinect_v3")
     assert r.returncode == 1 and "sensor_model 'kinect_v3': expected one of" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1

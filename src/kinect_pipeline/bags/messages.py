@@ -55,24 +55,58 @@ def camera_from_info(info: Any) -> Any:
         raise BagError(str(exc)) from exc
 
 
+#: The transports of a depth image whose topics the tools read: image_transport's ``compressedDepth`` plugin, and
+#: its ``compressed`` plugin where it holds a lossless PNG of 16-bit or 8-bit depth (``16UC1; png compressed``).
+TRANSPORTS = ("/compressedDepth", "/compressed")
+
+#: What the tools decode of image_transport's ``compressed`` plugin: a lossless PNG of 16-bit depth (as the node).
+PNG_DEPTH = ("16UC1", "mono16")
+
+SUPPORTED = (
+    "sensor_msgs/Image (8UC1, mono8, 16UC1, mono16, 32FC1), its compressedDepth (16UC1 / 32FC1; compressedDepth png "
+    "or rvl) and its compressed PNG of 16-bit depth (16UC1 / mono16; png compressed)"
+)
+
+
 def is_compressed_depth(msgtype: str, topic: str) -> bool:
-    return msgtype == COMPRESSED and topic.rstrip("/").endswith("/compressedDepth")
+    """A CompressedImage topic of a transport the tools read (``…/compressedDepth``, ``…/compressed``)."""
+    return msgtype == COMPRESSED and topic.rstrip("/").endswith(TRANSPORTS)
 
 
 def depth_array(msg: Any) -> np.ndarray:
-    """The depth image of an Image or a compressedDepth CompressedImage message as a 2-D array (uint8, uint16 mm
-    or float32 m), through the core's conversions; a message it cannot read raises BagError saying why."""
+    """The depth image of an Image, a compressedDepth or a PNG ``compressed`` CompressedImage message as a 2-D
+    array (uint8, uint16 mm or float32 m), through the core's conversions; a message it cannot read raises
+    BagError saying why (and, for a format it does not read, what it reads)."""
     try:
         if hasattr(msg, "encoding"):
             return np.asarray(
                 _core.depth_from_buffer(msg.encoding, msg.width, msg.height, msg.step, bool(msg.is_bigendian), msg.data)
             )
-        decode = getattr(_core, "decode_compressed_depth", None)
-        if decode is None:
-            raise BagError("compressedDepth images: this build of the core has no decoder")
-        return np.asarray(decode(msg.format, msg.data))
+        fmt = str(msg.format)
+        if "compressedDepth" in fmt:
+            decode = getattr(_core, "decode_compressed_depth", None)
+            if decode is None:
+                raise BagError("compressedDepth images: this build of the core has no decoder")
+            return np.asarray(decode(fmt, msg.data))
+        return png_depth(fmt, msg.data)
     except (ValueError, TypeError) as exc:
         raise BagError(str(exc)) from exc
+
+
+def png_depth(fmt: str, data: Any) -> np.ndarray:
+    """A depth image of image_transport's ``compressed`` plugin: format ``16UC1; png compressed`` (or mono16), a
+    bare lossless 16-bit PNG, which the core's compressedDepth decoder reads as it reads the PNG of a
+    compressedDepth message. JPEG, 8-bit, colour and anything else raise BagError naming the format and what is
+    read."""
+    encoding, _, rest = fmt.partition(";")
+    if encoding.strip() not in PNG_DEPTH or "png" not in rest.split():
+        raise BagError(
+            f"compressed image format {fmt.strip()!r}: not a depth image the tools read; they read {SUPPORTED}"
+        )
+    decode = getattr(_core, "decode_compressed_depth", None)
+    if decode is None:
+        raise BagError("compressed PNG depth images: this build of the core has no decoder")
+    return np.asarray(decode("16UC1; compressedDepth png", data))
 
 
 def header(types: Any, stamp_msg: Any, frame_id: str, seq: int = 0) -> Any:

@@ -12,9 +12,18 @@ from typing import Any
 
 import numpy as np
 
-from .. import _core
+from ..intrinsics import HOW, Intrinsics, IntrinsicsError, nominal_camera
 from ..outputs import progress
-from .messages import CAMERA_INFO, IMAGE, camera_from_info, depth_array, is_compressed_depth, stamp, typestore
+from .messages import (
+    CAMERA_INFO,
+    IMAGE,
+    TRANSPORTS,
+    camera_from_info,
+    depth_array,
+    is_compressed_depth,
+    stamp,
+    typestore,
+)
 from .ros1 import Bag, BagError, Damage
 
 ROS1, SQLITE3, MCAP = "ros1", "sqlite3", "mcap"
@@ -146,26 +155,38 @@ def open_bag(path: Path, recover: bool = False) -> BagReader:
 
 
 def depth_topics(connections: list[Any]) -> list[str]:
-    """Topics that carry depth frames: Image topics, and compressedDepth topics where the core decodes them."""
+    """Topics that may carry depth frames: Image topics, and compressedDepth / compressed topics (whether a
+    message is a depth image the tools read is told per message, by its format)."""
     out = {c.topic for c in connections if c.msgtype == IMAGE}
-    if hasattr(_core, "decode_compressed_depth"):
-        out |= {c.topic for c in connections if is_compressed_depth(c.msgtype, c.topic)}
+    out |= {c.topic for c in connections if is_compressed_depth(c.msgtype, c.topic)}
     return sorted(out)
 
 
 def image_topic_of(depth_topic: str) -> str:
-    """The raw image topic of a depth topic (``X/compressedDepth`` -> ``X``)."""
-    return depth_topic[: -len("/compressedDepth")] if depth_topic.endswith("/compressedDepth") else depth_topic
+    """The raw image topic of a depth topic (``X/compressedDepth``, ``X/compressed`` -> ``X``)."""
+    for suffix in TRANSPORTS:
+        if depth_topic.endswith(suffix):
+            return depth_topic[: -len(suffix)]
+    return depth_topic
 
 
-def pick_topics(connections: list[Any], depth: str | None, info: str | None) -> tuple[str, str]:
+def topics_of(connections: list[Any]) -> str:
+    """The bag's topics with their types, for messages (``/a [Image], /b [CompressedImage]``)."""
+    kinds = sorted({(c.topic, c.msgtype.rsplit("/", 1)[-1]) for c in connections})
+    return ", ".join(f"{t} [{k}]" for t, k in kinds) or "none"
+
+
+def pick_topics(
+    connections: list[Any], depth: str | None, info: str | None, need_info: bool = True
+) -> tuple[str, str | None]:
     """The depth topic and its camera_info topic: as given, else the only depth topic with "depth" in its name
-    (a raw Image before its compressedDepth) and ``camera_info`` beside it. Raises BagError naming the choices."""
+    (a raw Image before its compressed transports) and ``camera_info`` beside it. Raises BagError naming the
+    choices. ``need_info`` False (the intrinsics come from elsewhere): a camera_info topic the bag lacks is None."""
     images = depth_topics(connections)
     infos = sorted({c.topic for c in connections if c.msgtype == CAMERA_INFO})
     if depth is None:
         cands = [t for t in images if "depth" in t and not image_topic_of(t).endswith("/processed")]
-        raw = [t for t in cands if not t.endswith("/compressedDepth")]
+        raw = [t for t in cands if image_topic_of(t) == t]
         cands = raw if raw and all(image_topic_of(t) in raw for t in cands) else cands
         if len(cands) != 1:
             raise BagError(
@@ -174,12 +195,23 @@ def pick_topics(connections: list[Any], depth: str | None, info: str | None) -> 
         depth = cands[0]
     elif depth not in images:
         raise BagError(f"--depth-topic {depth}: not a depth image topic of the bag (image topics: {images or 'none'})")
+    named = info is not None
     info = info or image_topic_of(depth).rsplit("/", 1)[0] + "/camera_info"
-    if info not in infos:
+    if info in infos:
+        return depth, info
+    if named:
+        raise BagError(f"--info-topic {info}: not in the bag (its CameraInfo topics: {infos or 'none'})")
+    if not need_info:
+        return depth, None
+    if infos:
         raise BagError(
-            f"camera_info topic {info} not in the bag (CameraInfo topics: {infos or 'none'}): name it with --info-topic"
+            f"camera_info topic {info} (beside {depth}) not in the bag; its CameraInfo topics: {', '.join(infos)}: "
+            f"name one with --info-topic, or give {HOW}"
         )
-    return depth, info
+    raise BagError(
+        f"the bag has no CameraInfo (its topics: {topics_of(connections)}): give the depth camera's intrinsics with "
+        f"{HOW}, or --sensor-model NAME for its nominal camera"
+    )
 
 
 def read_side(
@@ -224,17 +256,63 @@ class CameraInfos:
         return self.by_stamp[near], f"no camera_info of its stamp: the one at {near:.3f} s used"
 
 
+class Cameras:
+    """Where each depth frame's camera comes from: ``intrinsics`` where given (they win over a camera_info), else
+    the camera_info of the frame's stamp (:class:`CameraInfos`), else the ``sensor_model`` preset's nominal camera
+    scaled to the image (``warning`` then says so). Without any of them a frame raises BagError saying what to give."""
+
+    def __init__(
+        self,
+        bag: BagReader,
+        info_topic: str | None,
+        intrinsics: Intrinsics | None = None,
+        sensor_model: str | None = None,
+        on_damage: Callable[[Damage], None] | None = None,
+    ) -> None:
+        self.intrinsics, self.sensor_model = intrinsics, sensor_model
+        use_info = info_topic is not None and intrinsics is None
+        self.infos = CameraInfos(bag, info_topic, on_damage) if use_info and info_topic else None
+        self.warning = ""  #: the nominal camera is a guess: said once
+        self.source = (
+            f"intrinsics from {intrinsics.source}"
+            if intrinsics is not None
+            else f"camera_info on {info_topic}"
+            if self.infos is not None and self.infos.stamps
+            else f"the nominal camera of --sensor-model {sensor_model}"
+            if sensor_model
+            else "none"
+        )
+
+    def for_frame(self, msg: Any, depth: np.ndarray) -> tuple[Any, str]:
+        """The camera of a depth message whose image is ``depth``, and a note where its camera_info is not of its
+        own stamp (:meth:`CameraInfos.for_stamp`)."""
+        height, width = depth.shape[:2]
+        try:
+            if self.intrinsics is not None:
+                return self.intrinsics.camera(width, height), ""
+            if self.infos is not None and self.infos.stamps:
+                info, note = self.infos.for_stamp(stamp(msg))
+                return camera_from_info(info), note
+            if self.sensor_model:
+                cam, self.warning = nominal_camera(self.sensor_model, width, height)
+                return cam, ""
+        except IntrinsicsError as exc:
+            raise BagError(str(exc)) from exc
+        where = f"no camera_info on {self.infos.topic} in the bag" if self.infos is not None else "no CameraInfo"
+        raise BagError(f"{where}: give {HOW}, or --sensor-model NAME for its nominal camera")
+
+
 def depth_frames(
     bag: BagReader,
     depth_topic: str,
-    info_topic: str,
+    cameras: Cameras,
     progress_name: str | None = None,
     problems: list[str] | None = None,
 ) -> Iterator[tuple[Any, Any, np.ndarray]]:
-    """(depth message, its camera, its depth array) of every depth frame of the bag in time order, each paired with
-    the camera_info of its stamp (:class:`CameraInfos`). Frames that cannot be used (no camera_info, an image or a
-    camera_info the core refuses) are left out and said in ``problems``. ``progress_name``: a progress bar."""
-    infos = CameraInfos(bag, info_topic)
+    """(depth message, its camera, its depth array) of every depth frame of the bag in time order, each with its
+    camera from ``cameras`` (:class:`Cameras`: the camera_info of its stamp, or intrinsics given). Frames that
+    cannot be used (no camera, an image or a camera_info the core refuses) are left out and said in ``problems``.
+    ``progress_name``: a progress bar."""
     conns = [c for c in bag.connections if c.topic == depth_topic]
     bar: Any = None
     if progress_name:
@@ -246,12 +324,9 @@ def depth_frames(
             next(bar, None)
         msg = bag.decode(conn, raw)
         at = stamp(msg)
-        info, note = infos.for_stamp(at)
         try:
-            if info is None:
-                raise BagError(note)
-            cam = camera_from_info(info)
             depth = depth_array(msg)
+            cam, note = cameras.for_frame(msg, depth)
         except BagError as exc:
             if problems is not None:
                 problems.append(f"{depth_topic} at {at:.3f} s: {exc}; frame skipped")

@@ -25,7 +25,7 @@ from . import (
     soak,
     synth,
 )
-from ._common import COMMAND, Formatter, ToolError, parse_params
+from ._common import COMMAND, Formatter, ToolError, join_intrinsics, parse_params
 
 COMMANDS: tuple[ModuleType, ...] = (
     demo,
@@ -69,7 +69,7 @@ def _message(exc: BaseException) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(join_intrinsics(sys.argv[1:] if argv is None else list(argv)))
     try:
         return int(args.func(args))
     except (ToolError, ValueError, OSError) as exc:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,11 @@ COMMAND = "kinect-pipeline"
 
 class ToolError(Exception):
     """A known failure: printed as one line, exit status 1."""
+
+
+def warn(command: str, text: str) -> None:
+    """A result that rests on a guess or is doubtful: one WARNING line on stderr."""
+    print(f"{COMMAND} {command}: WARNING: {text}", file=sys.stderr)
 
 
 class Formatter(argparse.RawDescriptionHelpFormatter):
@@ -99,43 +105,77 @@ def with_sensor_model(config: dict[str, Any], name: str | None) -> dict[str, Any
 
 
 def frames_camera(args: argparse.Namespace, width: int, height: int) -> Any:
-    """The camera of frames: --intrinsics, else the --sensor-model preset's typical intrinsics at its size."""
-    from .. import _core
+    """The camera of frames: --intrinsics, else the --sensor-model preset's nominal camera scaled to their size
+    (a WARNING on stderr says it is a guess)."""
+    from ..intrinsics import HOW, IntrinsicsError, nominal_camera
 
-    if args.intrinsics:
-        return camera(args.intrinsics, width, height)
-    name = getattr(args, "sensor_model", None)
-    if not name:
-        raise ToolError("depth frames need --intrinsics FX FY CX CY (or --sensor-model NAME for typical ones)")
-    cam = _core.sensor_model(name)["camera"]
-    if (cam.width, cam.height) != (width, height):
-        raise ToolError(
-            f"--sensor-model {name}: its typical intrinsics are for {cam.width}x{cam.height}, the frames are "
-            f"{width}x{height}: give --intrinsics FX FY CX CY"
-        )
+    intr = intrinsics_of(args)
+    try:
+        if intr is not None:
+            return intr.camera(width, height)
+        name = getattr(args, "sensor_model", None)
+        if not name:
+            raise ToolError(
+                f"depth frames need the camera's intrinsics: {HOW}, or --sensor-model NAME for nominal ones"
+            )
+        cam, warning = nominal_camera(name, width, height)
+    except IntrinsicsError as exc:
+        raise ToolError(str(exc)) from exc
+    warn(args.command, warning)
     return cam
 
 
 def add_intrinsics(p: argparse.ArgumentParser, extra: str = "") -> None:
     p.add_argument(
         "--intrinsics",
-        nargs=4,
-        type=float,
-        metavar=("FX", "FY", "CX", "CY"),
-        help="the depth camera's focal lengths and principal point [px], as K of its camera_info"
+        metavar="FX,FY,CX,CY[,W,H]|FILE",
+        help="the depth camera's focal lengths and principal point [px] (K of its camera_info) and optionally the "
+        "image size they are for, with or without commas, or a camera_info YAML file as camera_calibration writes it"
         + (extra or " (default: none; required)"),
     )
 
 
-def camera(intrinsics: list[float], width: int, height: int) -> Any:
-    """The core's camera for ``--intrinsics`` at the frames' size; a bad value raises ToolError naming the option."""
-    from .. import _core
+def join_intrinsics(argv: list[str]) -> list[str]:
+    """The command line with ``--intrinsics FX FY CX CY [W H]`` (numbers apart, as before commas were taken) made
+    one argument, ``--intrinsics=FX,FY,CX,CY[,W,H]``, so that frames named after it stay frames."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        out.append(argv[i])
+        i += 1
+        if out[-1] != "--intrinsics":
+            continue
+        numbers: list[str] = []
+        while i < len(argv) and len(numbers) < 6 and _is_number(argv[i]):
+            numbers.append(argv[i])
+            i += 1
+        if len(numbers) > 1:
+            out[-1] = "--intrinsics=" + ",".join(numbers)
+        else:
+            out += numbers
+    return out
 
+
+def _is_number(text: str) -> bool:
     try:
-        return _core.Camera(width, height, *intrinsics)
-    except (ValueError, TypeError) as exc:
-        values = " ".join(f"{v:g}" for v in intrinsics)
-        raise ToolError(f"--intrinsics {values}: {exc}") from exc
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def intrinsics_of(args: argparse.Namespace) -> Any:
+    """``--intrinsics`` as :class:`kinect_pipeline.intrinsics.Intrinsics` (None where not given); a bad value raises
+    ToolError naming it."""
+    from ..intrinsics import IntrinsicsError, parse_intrinsics
+
+    values = getattr(args, "intrinsics", None)
+    if not values:
+        return None
+    try:
+        return parse_intrinsics([str(values)])
+    except IntrinsicsError as exc:
+        raise ToolError(str(exc)) from exc
 
 
 # -- depth frames ---------------------------------------------------------------------------------------------------
@@ -157,18 +197,27 @@ def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positiona
         default=0.001,
         help="metres per unit of 16-bit frames [m] (TUM and slambook2 ch7: 0.0002)",
     )
-    add_intrinsics(p, " (default: none; with frames, required unless --sensor-model gives typical ones)")
+    add_intrinsics(
+        p,
+        " (default: none; frames need them unless --sensor-model gives nominal ones; a bag: its camera_info, where it "
+        "has none --sensor-model's nominal camera with a warning)",
+    )
     add_sensor_model(p, sensor_use)
 
 
-def frame_files(items: Iterable[str]) -> list[Path]:
-    """The frames named: files as given, folders as their depth frames in name order."""
+def frame_files(items: Iterable[str], command: str = "") -> list[Path]:
+    """The frames named: files as given, folders as their depth frames in name order (colour images in them
+    skipped, one line on stderr per folder saying how many, when ``command`` names the command)."""
     from ..tools.calibrate import frame_paths
 
+    skipped: list[str] = []
     try:
-        return frame_paths([Path(p) for p in items])
+        out = frame_paths([Path(p) for p in items], skipped)
     except ValueError as exc:
         raise ToolError(str(exc)) from exc
+    for line in skipped if command else ():
+        print(f"{COMMAND} {command}: {line}", file=sys.stderr)
+    return out
 
 
 def check(inputs: Iterable[Path | Named], outputs: Iterable[Named | None], folders: Iterable[Named] = ()) -> None:

@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_frames, check, frame_files, frames_camera, named
+from ._common import ToolError, add_frames, check, frame_files, frames_camera, intrinsics_of, named, warn
 from .replay import add_bag_topics
 
 NAME = "calibrate"
@@ -20,7 +20,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--bag",
         help="instead of frames, a bag of a moving base: per depth frame, how far the pose tf gives (URDF + IMU) is "
-        "from the floor seen in it (median / p95 / max; intrinsics from its camera_info) (default: none)",
+        "from the floor seen in it (median / p95 / max; intrinsics from its camera_info, or --intrinsics) (default: "
+        "none)",
     )
     add_bag_topics(p)
     p.add_argument(
@@ -33,8 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--max-tilt",
         type=float,
         default=40.0,
-        help="largest |pitch| and |roll| considered [deg]: a wall seen by a level camera looks like a floor seen by "
-        "a steeply tilted one",
+        help="largest tilt of the floor from the image's up considered [deg] (where that finds no plausible floor, "
+        "the frame is searched a quarter turn either way too: any mounting roll, |pitch| up to this): a wall seen by "
+        "a level camera looks like a floor seen by a steeply tilted one",
     )
     p.add_argument("--json", action="store_true", help="print JSON: height [m], pitch, roll [rad], ... (default: text)")
     p.add_argument("--optical-frame", default="kinect2_depth_optical_frame", help="child frame of the static tf line")
@@ -50,13 +52,13 @@ def run(args: argparse.Namespace) -> int:
         )
     from ..tools.calibrate import CalibrationError, calibrate, load_depth
 
-    files = frame_files(args.files)
+    files = frame_files(args.files, NAME)
     check([*map(Path, args.files), *files], [named("--plot", args.plot)])
     try:
         frames = [(str(f), load_depth(f, args.depth_scale, args.max_depth)) for f in files]
         h, w = frames[0][1].shape
         cam = frames_camera(args, w, h)
-        result = calibrate(frames, cam, max_tilt=math.radians(args.max_tilt))
+        result = calibrate(frames, cam, max_tilt=math.radians(args.max_tilt), sensor_model=args.sensor_model or "")
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc
     d = result.as_dict(args.base_frame, args.optical_frame)
@@ -103,9 +105,13 @@ def _run_bag(args: argparse.Namespace) -> int:
             max_depth=args.max_depth,
             max_tilt=math.radians(args.max_tilt),
             show_progress=not args.json,
+            intrinsics=intrinsics_of(args),
+            sensor_model=args.sensor_model,
         )
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc
+    for w in result.warnings:
+        warn(NAME, w)
     if result.summary()["frames_with_floor"] == 0:
         raise ToolError(f"no floor found in any of the {len(result.frames)} frames of {args.bag}")
     if args.plot:

@@ -64,7 +64,7 @@ def _fit(args: argparse.Namespace) -> CurveFit:
         raise ToolError(
             "give floor frames and --intrinsics (or --sensor-model), or --from-model SIGMA0 K, or --compare"
         )
-    frames = [(str(f), load_depth(f, args.depth_scale)) for f in frame_files(args.files)]
+    frames = [(str(f), load_depth(f, args.depth_scale)) for f in frame_files(args.files, NAME)]
     h, w = frames[0][1].shape
     return fit_curve(frames, frames_camera(args, w, h), args.rate, args.margin)
 

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_param, add_quiet
+from ._common import ToolError, add_intrinsics, add_param, add_quiet
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    from .replay import add_bag_topics
+    from .replay import BAG_INTRINSICS, add_bag_topics
 
     p.add_argument(
         "--bag",
@@ -19,6 +19,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "ground truth it carries (/ground_truth/scan, /ground_truth/labels, as synth writes) (default: none)",
     )
     add_bag_topics(p)
+    add_intrinsics(p, BAG_INTRINSICS)
     add_param(p)
     p.add_argument("--frames", type=int, default=20, help="frames per pitch condition [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")

@@ -7,9 +7,26 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ._common import ToolError, add_param, add_quiet, add_sensor_model, check, named, parse_params, with_sensor_model
+from ._common import (
+    ToolError,
+    add_intrinsics,
+    add_param,
+    add_quiet,
+    add_sensor_model,
+    check,
+    intrinsics_of,
+    named,
+    parse_params,
+    warn,
+    with_sensor_model,
+)
 
 NAME = "replay"
+#: What --intrinsics does for a bag.
+BAG_INTRINSICS = (
+    " (default: the bag's camera_info; where it has none, --sensor-model's nominal camera with a warning; given, "
+    "they win over the bag's camera_info)"
+)
 HELP = "run the pipeline over a bag at the pose its tf gives; write the scans and the cleaned image to a new bag"
 
 
@@ -38,9 +55,11 @@ def bag_options(args: argparse.Namespace, **more: object) -> Any:
     from ..tools.replay import ReplayOptions
 
     config = with_sensor_model(parse_params(args.param), getattr(args, "sensor_model", None))
+    intr = intrinsics_of(args)
     return ReplayOptions(
         depth_topic=args.depth_topic,
         info_topic=args.info_topic,
+        intrinsics=None if intr is None else intr.as_list(),
         base_frame=args.base_frame,
         base_frame_height=args.base_frame_height,
         config=config,
@@ -77,7 +96,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         help="stop after this many depth frames: a complete, shorter bag [frames] (default: all)",
     )
-    add_sensor_model(p, "its threshold curve, range and cliff pixels")
+    add_intrinsics(p, BAG_INTRINSICS)
+    add_sensor_model(
+        p, "its threshold curve, range and cliff pixels (and nominal intrinsics where the bag has no CameraInfo)"
+    )
     add_param(p)
     add_quiet(p)
 
@@ -101,4 +123,6 @@ def run(args: argparse.Namespace) -> int:
             )
         return 130
     print(format_report(report))
+    for w in report.warnings:
+        warn(NAME, w)
     return 0

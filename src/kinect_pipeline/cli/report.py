@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 
 from ..outputs import Named
-from ._common import ToolError, add_frames, add_param, add_quiet, check, frame_files, frames_camera
+from ._common import ToolError, add_frames, add_param, add_quiet, check, frame_files, frames_camera, warn
 from .replay import add_bag_topics, bag_options
 
 NAME = "report"
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     opts = bag_options(args)
     cam = None
     if is_frames(items):
-        files = frame_files(args.input)
+        files = frame_files(args.input, NAME)
         h, w = load_depth(files[0], args.depth_scale).shape
         cam = frames_camera(args, w, h)
     try:
@@ -51,4 +51,6 @@ def run(args: argparse.Namespace) -> int:
         raise ToolError(str(exc)) from exc
     print(json.dumps({k: v for k, v in summary.items() if k != "pictures"}, indent=1))
     print(f"report: {out / 'index.html'}")
+    for w in summary["warnings"]:
+        warn(NAME, w)
     return 0

@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import _core
 from ..bags.messages import LASER_SCAN, stamp
-from ..bags.reader import depth_frames, open_bag, pick_topics, read_side
+from ..bags.reader import depth_frames, open_bag, read_side
 from ..bags.tf import read_tf
 from ..figures import plot_frame
 from ..outputs import check_outputs, output_folder, save_figure, write_text
@@ -56,7 +56,9 @@ class Collected:
     angle_increment: float = 0.0
     showcase: tuple[np.ndarray, Any, float, str] | None = None  #: depth, result, max_depth, which frame
     pose_note: str = ""  #: where the pose came from
+    camera_note: str = ""  #: where the camera's intrinsics came from
     problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  #: results that rest on a guess: said on stderr and the page
 
 
 class _Runner:
@@ -107,28 +109,39 @@ def _side_topics(bag: Any) -> tuple[str | None, dict[str, dict[float, Any]]]:
 
 
 def collect(bag_path: Path, opts: ReplayOptions, show_progress: bool = True, keep_labels: bool = False) -> Collected:
-    """Runs the core over every depth frame of a bag at its tf pose (the static pose of ``opts.config`` where tf
-    has none), with the LiDAR and ground truth of each frame where the bag has them."""
+    """Runs the core over every depth frame of a bag at its tf pose, with the LiDAR and ground truth of each frame
+    where the bag has them. Where tf has no pose: the static pose of ``opts.config`` where it gives one (--param
+    sensor_height ...), else the pose of the frame's own floor (a frame without one is left out)."""
     out = Collected(f"bag {bag_path}")
     bag = open_bag(bag_path)
     try:
-        depth_topic, info_topic = pick_topics(list(bag.connections), opts.depth_topic, opts.info_topic)
-        out.source = f"bag {bag_path}, {depth_topic}"
+        depth_topic, info_topic = opts.topics(bag)
+        cameras = opts.cameras(bag, info_topic)
+        out.source, out.camera_note = f"bag {bag_path}, {depth_topic}", cameras.source
         tf = read_tf(bag)
         _, side = _side_topics(bag)
-        runner, fallback = _Runner(dict(opts.config), out), 0
+        runner, fallback, floor = _Runner(dict(opts.config), out), 0, 0
         static = _core.Config(**opts.config)
+        given = any(k in opts.config for k in POSE_FIELDS)
         for msg, cam, depth in depth_frames(
-            bag, depth_topic, info_topic, "report" if show_progress else None, out.problems
+            bag, depth_topic, cameras, "report" if show_progress else None, out.problems
         ):
             st = stamp(msg)
             try:
                 q, t = tf.lookup(opts.base_frame, msg.header.frame_id, st, opts.tf_tolerance)
                 h, p, r, yaw = _core.pose_from_optical_transform((q, t), opts.base_frame_height)
                 xy = (t[0], t[1], yaw)
-            except LookupError:
-                h, p, r, xy = static.sensor_height, static.sensor_pitch, static.sensor_roll, (0.0, 0.0, 0.0)
-                fallback += 1
+            except LookupError as exc:
+                xy = (0.0, 0.0, 0.0)
+                if given:
+                    h, p, r = static.sensor_height, static.sensor_pitch, static.sensor_roll
+                    fallback += 1
+                else:
+                    pose = _own_floor(depth, cam, static.max_depth, f"frame at {st:.3f} s", out)
+                    if pose is None:
+                        out.problems.append(f"{depth_topic} at {st:.3f} s: {exc}, and no floor in view; frame skipped")
+                        continue
+                    (h, p, r), floor = pose, floor + 1
             res, res_f = runner.run(cam, depth, (h, p, r), f"frame at {st:.2f} s")
             rec = _record(st, (h, p, r), xy, res, res_f)
             rec.gt_scan = side["gt_scan"].get(st)
@@ -140,16 +153,32 @@ def collect(bag_path: Path, opts: ReplayOptions, show_progress: bool = True, kee
             out.frames.append(rec)
     finally:
         bag.close()
+    if cameras.warning:
+        out.warnings.append(cameras.warning)
     if not out.frames:
         why = "; ".join(out.problems[:3]) or "no depth frame in it"
         raise ReplayError(f"{bag_path}: no frame of {depth_topic} could be processed: {why}")
     n = len(out.frames)
-    out.pose_note = (
-        f"pose from the bag's tf ({opts.base_frame})"
-        if not fallback
-        else f"pose from tf for {n - fallback} of {n} frames, the static pose of the parameters for the rest"
-    )
+    out.pose_note = f"pose from the bag's tf ({opts.base_frame})"
+    if fallback:
+        out.pose_note = f"pose from tf for {n - fallback} of {n} frames, the static pose of the parameters for the rest"
+    if floor:
+        out.pose_note = (
+            f"pose from tf for {n - floor} of {n} frames, each frame's own floor for the rest (no tf to "
+            f"{opts.base_frame} there, and no --param sensor_height / sensor_pitch / sensor_roll)"
+        )
     return out
+
+
+def _own_floor(
+    depth: np.ndarray, cam: Any, max_depth: float, name: str, out: Collected
+) -> tuple[float, float, float] | None:
+    """The pose of the floor seen in a frame of a bag, None where there is none (its warnings to out.problems)."""
+    from ..tools.calibrate import calibrate, depth_metres
+
+    cal = calibrate([(name, depth_metres(depth, 0.001, max_depth, name))], cam)
+    out.problems += cal.warnings
+    return (cal.height, cal.pitch, cal.roll) if cal.found else None
 
 
 def _record(
@@ -181,40 +210,78 @@ def collect_frames(
 ) -> Collected:
     """Runs the core over depth frames (one sequence, in the order given) at the pose of ``config``'s
     sensor_height / sensor_pitch / sensor_roll where it gives one, else at the pose calibrated from the frames'
-    floor."""
-    from ..tools.calibrate import CalibrationError, calibrate, load_depth
+    floor: one pose for frames that agree (a sensor standing still), each frame's own where they disagree (a
+    moving camera; frames without a floor of their own are then left out, and none left is an error)."""
+    from ..tools.calibrate import CalibrationError, load_depth
 
     config = dict(config or {})
     out = Collected(f"{len(files)} depth frame(s): {files[0]}{' ...' if len(files) > 1 else ''}")
     frames = [(str(f), load_depth(f, depth_scale, max_depth)) for f in files]
-    if not any(k in config for k in ("sensor_height", "sensor_pitch", "sensor_roll")):
-        cal = calibrate(frames, camera)
-        if not cal.found:
-            raise CalibrationError(
-                f"{cal.message}: give the pose with --param sensor_height=H --param sensor_pitch=P (m, rad)"
-            )
-        config.update(sensor_height=cal.height, sensor_pitch=cal.pitch, sensor_roll=cal.roll)
+    for name, metres in frames:
+        if metres.shape != (camera.height, camera.width):
+            raise CalibrationError(f"{name}: {metres.shape[1]}x{metres.shape[0]}, but the camera is {camera!r}")
+    if any(k in config for k in POSE_FIELDS):
+        cfg = _core.Config(**config)
+        poses: list[tuple[float, float, float] | None] = [(cfg.sensor_height, cfg.sensor_pitch, cfg.sensor_roll)] * len(
+            frames
+        )
+        out.pose_note = "pose from the parameters"
+    else:
+        poses = floor_poses(frames, camera, out)
+    runner = _Runner(config, out)
+    items: Any = list(zip(frames, poses, strict=True))
+    if show_progress:
+        from ..outputs import progress
+
+        items = progress(items, len(items), "report")
+    for i, ((name, metres), pose) in enumerate(items):
+        if pose is None:
+            continue
+        res, res_f = runner.run(camera, metres, pose, Path(name).name)
+        out.frames.append(_record(float(i), pose, (0.0, 0.0, 0.0), res, res_f))
+    return out
+
+
+POSE_FIELDS = ("sensor_height", "sensor_pitch", "sensor_roll")
+
+
+def floor_poses(
+    frames: list[tuple[str, np.ndarray]], camera: Any, out: Collected
+) -> list[tuple[float, float, float] | None]:
+    """The pose of each frame from the floor: where the frames agree, their mean for all; where they disagree (the
+    camera moved: the mean would be no frame's pose and draw the floor as obstacles), each frame's own, None for a
+    frame without a floor of its own. Says which in ``out.pose_note``; the calibration's warnings go to
+    ``out.problems``. No floor anywhere raises CalibrationError."""
+    from ..tools.calibrate import CalibrationError, calibrate, disagreement
+
+    cal = calibrate(frames, camera)
+    if not cal.found:
+        raise CalibrationError(
+            f"{cal.message}: give the pose with --param sensor_height=H --param sensor_pitch=P (m, rad)"
+        )
+    good = [r for r in cal.frames if r["found"]]
+    if not disagreement(good):
         out.pose_note = (
             f"pose calibrated from the frames' floor: height {cal.height:.3f} m, pitch "
             f"{math.degrees(cal.pitch):.2f} deg, roll {math.degrees(cal.roll):.2f} deg"
         )
         out.problems += cal.warnings
-    else:
-        out.pose_note = "pose from the parameters"
-    cfg = _core.Config(**config)
-    pose = (cfg.sensor_height, cfg.sensor_pitch, cfg.sensor_roll)
-    runner = _Runner(config, out)
-    items: Any = frames
-    if show_progress:
-        from ..outputs import progress
-
-        items = progress(frames, len(frames), "report")
-    for i, (name, metres) in enumerate(items):
-        if metres.shape != (camera.height, camera.width):
-            raise CalibrationError(f"{name}: {metres.shape[1]}x{metres.shape[0]}, but the camera is {camera!r}")
-        res, res_f = runner.run(camera, metres, pose, Path(name).name)
-        out.frames.append(_record(float(i), pose, (0.0, 0.0, 0.0), res, res_f))
-    return out
+        return [(cal.height, cal.pitch, cal.roll)] * len(frames)
+    poses = [(r["height"], r["pitch"], r["roll"]) if r["found"] else None for r in cal.frames]
+    missing = [Path(str(r["file"])).name for r in cal.frames if not r["found"]]
+    heights, pitches = [p[0] for p in poses if p], [math.degrees(p[1]) for p in poses if p]
+    out.pose_note = (
+        f"pose per frame, each from its own floor (the frames disagree: the camera moved): height "
+        f"{min(heights):.2f}..{max(heights):.2f} m, pitch {min(pitches):.1f}..{max(pitches):.1f} deg"
+    )
+    out.problems += [w for w in cal.warnings if "disagree" not in w]
+    if missing:
+        more = ", ..." if len(missing) > 3 else ""
+        out.warnings.append(
+            f"{len(missing)} of {len(frames)} frames left out: no floor of their own, so their pose is not known "
+            f"(a moving camera): {', '.join(missing[:3])}{more}"
+        )
+    return poses
 
 
 def _points(ranges: np.ndarray, angle_min: float, inc: float, pose: tuple[float, float, float]) -> np.ndarray:
@@ -244,7 +311,10 @@ def write_report(
     if is_frames(items):
         if camera is None:
             raise ReplayError(f"{items[0]}: depth frames need the camera's intrinsics (--intrinsics or --sensor-model)")
-        c = collect_frames(frame_paths(items), camera, opts.config, depth_scale, show_progress=show_progress)
+        skipped: list[str] = []
+        files = frame_paths(items, skipped)
+        c = collect_frames(files, camera, opts.config, depth_scale, show_progress=show_progress)
+        c.problems[:0] = skipped
     elif len(items) == 1:
         c = collect(items[0], opts, show_progress)
     else:
@@ -268,13 +338,15 @@ def _write(out_dir: Path, c: Collected) -> dict[str, Any]:
         write_text(out_dir / "quality.json", json.dumps(summary, indent=1))
     rows = "".join(f"<tr><td>{html.escape(k)}</td><td>{html.escape(str(v))}</td></tr>" for k, v in summary.items())
     notes = "".join(f"<li>{html.escape(p)}</li>" for p in c.problems[:20])
+    warned = "".join(f"<p><b>WARNING</b>: {html.escape(w)}</p>" for w in c.warnings)
     figs = "".join(
         f'<figure><img src="{p}" style="max-width:100%"><figcaption>{html.escape(t)}</figcaption></figure>'
         for p, t in pictures
     )
     page = (
         "<!doctype html><html><head><meta charset='utf-8'><title>kinect_pipeline report</title></head><body>"
-        f"<h1>kinect_pipeline report</h1><p>{html.escape(c.source)}; {html.escape(c.pose_note)}</p>"
+        f"<h1>kinect_pipeline report</h1>{warned}<p>{html.escape(c.source)}; {html.escape(c.pose_note)}"
+        f"{'; camera: ' + html.escape(c.camera_note) if c.camera_note else ''}</p>"
         f"<table>{rows}</table>{f'<ul>{notes}</ul>' if notes else ''}{figs}</body></html>"
     )
     write_text(out_dir / "index.html", page)
@@ -365,11 +437,13 @@ def _summary(c: Collected) -> dict[str, Any]:
     return {
         "input": c.source,
         "pose": c.pose_note,
+        "camera": c.camera_note,
         "frames": len(c.frames),
         "ms_per_frame_median": round(float(np.median([f.ms for f in c.frames])), 3),
         "pitch_deg_range": [round(min(pitches), 2), round(max(pitches), 2)],
         "frames_with_cliff_beams": sum(f.cliff > 0 for f in c.frames),
         "problems": len(c.problems),
+        "warnings": list(c.warnings),
     }
 
 

@@ -22,19 +22,42 @@ class CalibrationError(ValueError):
 FRAME_SUFFIXES = (".png", ".pgm", ".npy", ".tif", ".tiff")
 
 
-def frame_paths(items: list[Path]) -> list[Path]:
+def frame_paths(items: list[Path], skipped: list[str] | None = None) -> list[Path]:
     """The depth frames named: files as they are, folders as the frames in them (``FRAME_SUFFIXES``, in name
-    order). A folder without frames raises CalibrationError naming it."""
+    order). Colour images in a folder (datasets keep them beside the depth) are left out: one line in ``skipped``
+    per folder says how many. A folder without depth frames raises CalibrationError naming it."""
     out: list[Path] = []
     for item in items:
-        if item.is_dir():
-            found = sorted(p for p in item.iterdir() if p.suffix.lower() in FRAME_SUFFIXES and p.is_file())
-            if not found:
-                raise CalibrationError(f"{item}: a folder without depth frames ({', '.join(FRAME_SUFFIXES)})")
-            out.extend(found)
-        else:
+        if not item.is_dir():
             out.append(item)
+            continue
+        found = sorted(p for p in item.iterdir() if p.suffix.lower() in FRAME_SUFFIXES and p.is_file())
+        colour = [p for p in found if is_colour_image(p)]
+        depth = [p for p in found if p not in colour]
+        if colour and skipped is not None:
+            more = ", ..." if len(colour) > 2 else ""
+            skipped.append(
+                f"{item}: {len(colour)} colour image(s) skipped ({', '.join(p.name for p in colour[:2])}{more}), "
+                f"{len(depth)} depth frame(s) taken"
+            )
+        if not depth:
+            what = f" (only {len(colour)} colour images)" if colour else ""
+            sub = [d.name for d in sorted(item.iterdir()) if d.is_dir()]
+            inside = f"; its folders: {', '.join(sub)}: name the one with the depth frames" if sub else ""
+            raise CalibrationError(f"{item}: a folder without depth frames ({', '.join(FRAME_SUFFIXES)}){what}{inside}")
+        out.extend(depth)
     return out
+
+
+def is_colour_image(path: Path) -> bool:
+    """Whether a PNG's header says it has colour (RGB, palette, grey + alpha, RGBA) rather than one depth channel;
+    read from its first 26 bytes, so that a folder of frames is sorted without decoding them."""
+    if path.suffix.lower() != ".png":
+        return False
+    with path.open("rb") as f:
+        head = f.read(26)
+    # the IHDR chunk: 8-byte signature, length, "IHDR", width, height, bit depth (byte 24), colour type (byte 25)
+    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR" and head[25] in (2, 3, 4, 6)
 
 
 def is_frames(items: list[Path]) -> bool:
@@ -169,7 +192,8 @@ def optical_quaternion(pitch: float, roll: float) -> tuple[float, float, float, 
 
 
 def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **options: Any) -> Calibration:
-    """Calibrates from one or more (name, metres) frames; several frames give a mean and a spread."""
+    """Calibrates from one or more (name, metres) frames (each by :func:`fit_floor`: any mounting roll, fits that
+    leave much below them refused); several frames give a mean and a spread. ``options``: of :func:`fit_floor`."""
     per: list[dict[str, Any]] = []
     for name, metres in frames:
         if metres.shape != (camera.height, camera.width):
@@ -177,11 +201,13 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
                 f"{name}: {metres.shape[1]}x{metres.shape[0]} but the intrinsics are for "
                 f"{camera.width}x{camera.height} (give --size W H if the principal point is off)"
             )
-        r = dict(_core.calibrate_from_floor(metres, camera, **options))
+        r = fit_floor(metres, camera, **options)
         r["file"] = name
         per.append(r)
     good = [r for r in per if r["found"]]
+    refused = [r for r in per if r.get("message")]
     if not good:
+        why = refused[0]["message"] if refused else "no plane facing up with enough pixels"
         return Calibration(
             False,
             0.0,
@@ -192,7 +218,7 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
             0.0,
             0.0,
             per,
-            f"no floor found in {len(per)} frame(s): no plane facing up with enough pixels",
+            f"no floor found in {len(per)} frame(s): {why}",
         )
     w = np.array([r["floor_pixels"] for r in good], float)
 
@@ -214,8 +240,16 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         spread("pitch"),
         spread("roll"),
         per,
-        warnings=disagreement(good) + weak_fits(good),
+        warnings=disagreement(good) + weak_fits(good) + refusals(refused, len(per)),
     )
+
+
+def refusals(refused: list[dict[str, Any]], frames: int) -> list[str]:
+    """One warning for the frames whose floor-like plane was refused (left out of the mean)."""
+    if not refused:
+        return []
+    names = ", ".join(Path(str(r["file"])).name for r in refused[:3]) + (", ..." if len(refused) > 3 else "")
+    return [f"{len(refused)} of {frames} frames left out ({names}): {refused[0]['message']}"]
 
 
 #: How far the frames averaged may disagree before a warning, beyond their fits' own uncertainty (3 sigma):
@@ -246,27 +280,47 @@ def disagreement(good: list[dict[str, Any]]) -> list[str]:
 WEAK_FRACTION, WEAK_PIXELS, WEAK_RMS = 0.10, 2000, 0.03
 
 
+#: More weak fits than this in a sequence are said in one line.
+WEAK_LINES = 3
+
+
 def weak_fits(good: list[dict[str, Any]]) -> list[str]:
-    """Warnings for frames whose floor is small, thin or far from flat."""
-    out = []
-    for r in good:
-        name = Path(str(r.get("file", "frame"))).name
-        why = []
-        if r["floor_fraction"] < WEAK_FRACTION:
-            why.append(f"the floor holds only {100 * r['floor_fraction']:.1f} % of the valid pixels (5 % needed)")
-        if r["floor_pixels"] < WEAK_PIXELS:
-            why.append(f"only {r['floor_pixels']} floor pixels")
-        if r["rms"] > WEAK_RMS:
-            why.append(f"its pixels lie {100 * r['rms']:.1f} cm (rms) off the fitted plane")
-        if r["height_std"] > 0.01 or max(r["pitch_std"], r["roll_std"]) > math.radians(0.5):
-            why.append(
-                "the fit is uncertain (height +- {:.3f} m, pitch +- {:.2f} deg, roll +- {:.2f} deg)".format(
-                    r["height_std"], math.degrees(r["pitch_std"]), math.degrees(r["roll_std"])
-                )
+    """Warnings for frames whose floor is small, thin or far from flat: one per frame, or, for more than
+    WEAK_LINES frames, one line counting them by reason."""
+    weak = [(Path(str(r.get("file", "frame"))).name, why) for r in good if (why := weak_reasons(r))]
+    if len(weak) <= WEAK_LINES:
+        return [
+            f"{name}: weak floor fit: {'; '.join(why.values())}: check the pose in the plot (--plot)"
+            for name, why in weak
+        ]
+    counts: dict[str, int] = {}
+    for _, why in weak:
+        for kind in why:
+            counts[kind] = counts.get(kind, 0) + 1
+    names = ", ".join(name for name, _ in weak[:3])
+    return [
+        f"{len(weak)} of {len(good)} frames have a weak floor fit ("
+        + ", ".join(f"{k}: {n}" for k, n in counts.items())
+        + f"; e.g. {names}): check the pose in the plot (--plot); --json gives every frame's fit"
+    ]
+
+
+def weak_reasons(r: dict[str, Any]) -> dict[str, str]:
+    """Why a frame's floor fit is weak, by kind (empty: it is not)."""
+    why = {}
+    if r["floor_fraction"] < WEAK_FRACTION:
+        why["a small floor"] = f"the floor holds only {100 * r['floor_fraction']:.1f} % of the valid pixels"
+    if r["floor_pixels"] < WEAK_PIXELS:
+        why["few floor pixels"] = f"only {r['floor_pixels']} floor pixels"
+    if r["rms"] > WEAK_RMS:
+        why["a loose plane"] = f"its pixels lie {100 * r['rms']:.1f} cm (rms) off the fitted plane"
+    if r["height_std"] > 0.01 or max(r["pitch_std"], r["roll_std"]) > math.radians(0.5):
+        why["an uncertain fit"] = (
+            "the fit is uncertain (height +- {:.3f} m, pitch +- {:.2f} deg, roll +- {:.2f} deg)".format(
+                r["height_std"], math.degrees(r["pitch_std"]), math.degrees(r["roll_std"])
             )
-        if why:
-            out.append(f"{name}: weak floor fit: {'; '.join(why)}: check the pose in the plot (--plot)")
-    return out
+        )
+    return why
 
 
 # -- check of the tf-provided pose against the floor seen in each frame of a bag (moving base) --------------------
@@ -281,11 +335,22 @@ class TfCheck:
     bag: str
     depth_topic: str
     frames: list[dict[str, Any]]  #: stamp, tf_*, floor_*, diff_* (tf - floor; m, rad), floor_fraction, found
+    camera: str = ""  #: where the camera's intrinsics came from
+    warnings: list[str] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
-        """Per quantity: median of tf - floor (signed: tf's bias), median / p95 / max of |tf - floor|, in m and rad."""
-        good = [f for f in self.frames if f["found"]]
-        out: dict[str, Any] = {"frames": len(self.frames), "frames_with_floor": len(good)}
+        """Per quantity: median of tf - floor (signed: tf's bias), median / p95 / max of |tf - floor|, in m and rad;
+        ``floor``: the median of the floor's pose over the frames it was found in (a bag without tf has only it)."""
+        good = [f for f in self.frames if f["found"] and "diff_height" in f]
+        floors = [f for f in self.frames if f["found"]]
+        out: dict[str, Any] = {
+            "frames": len(self.frames),
+            "frames_with_floor": len(floors),
+            "frames_with_tf": sum("tf_height" in f for f in self.frames),
+            "floor": {q: float(np.median([f[f"floor_{q}"] for f in floors])) for q, _, _ in TF_QUANTITIES}
+            if floors
+            else None,
+        }
         for q, _, _ in TF_QUANTITIES:
             d = np.array([f[f"diff_{q}"] for f in good], float)
             a = np.abs(d)
@@ -302,7 +367,14 @@ class TfCheck:
         return out
 
     def as_dict(self) -> dict[str, Any]:
-        return {"bag": self.bag, "depth_topic": self.depth_topic, "summary": self.summary(), "frames": self.frames}
+        return {
+            "bag": self.bag,
+            "depth_topic": self.depth_topic,
+            "camera": self.camera,
+            "warnings": self.warnings,
+            "summary": self.summary(),
+            "frames": self.frames,
+        }
 
 
 def check_tf(
@@ -314,12 +386,17 @@ def check_tf(
     max_depth: float = 12.0,
     max_tilt: float = math.radians(40.0),
     show_progress: bool = False,
+    intrinsics: Any = None,
+    sensor_model: str | None = None,
 ) -> TfCheck:
     """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
     stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
-    check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion)."""
+    check the robot's URDF (a constant offset) and its IMU / base pitch (an offset that follows the motion). Frames
+    without tf keep their floor's pose (a bag without tf: the floor's pose per frame). The camera: ``intrinsics``
+    (:class:`kinect_pipeline.intrinsics.Intrinsics`) where given, else the camera_info of each frame's stamp, else
+    ``sensor_model``'s nominal camera (with a warning)."""
     from ..bags.messages import stamp
-    from ..bags.reader import depth_frames, open_bag, pick_topics
+    from ..bags.reader import Cameras, depth_frames, open_bag, pick_topics
     from ..bags.ros1 import BagError
     from ..bags.tf import read_tf
 
@@ -331,42 +408,55 @@ def check_tf(
     except BagError as exc:
         raise CalibrationError(str(exc)) from exc
     frames: list[dict[str, Any]] = []
+    fits: list[dict[str, Any]] = []
     problems: list[str] = []
     try:
-        depth_topic, info_topic = pick_topics(list(reader.connections), depth_topic, info_topic)
+        need_info = intrinsics is None and not sensor_model
+        depth_topic, info_topic = pick_topics(list(reader.connections), depth_topic, info_topic, need_info)
+        cameras = Cameras(reader, info_topic, intrinsics, sensor_model)
         tf = read_tf(reader)
         progress = "calibrate" if show_progress else None
-        for img, cam, depth in depth_frames(reader, depth_topic, info_topic, progress, problems):
+        for img, cam, depth in depth_frames(reader, depth_topic, cameras, progress, problems):
             at = stamp(img)
             rec: dict[str, Any] = {"stamp": at, "found": False}
             frames.append(rec)
+            fit = fit_floor(depth_metres(depth, 0.001, max_depth, depth_topic), cam, max_tilt, sensor_model or "")
+            rec["floor_fraction"] = float(fit["floor_fraction"])
+            fits.append({**fit, "file": f"frame at {at:.3f} s"})
+            if fit["found"]:
+                rec.update(found=True, floor_height=fit["height"], floor_pitch=fit["pitch"], floor_roll=fit["roll"])
+            else:
+                rec["message"] = fit.get("message", "no floor found")
             try:
                 q, t = tf.lookup(base_frame, img.header.frame_id, at, tolerance)
             except LookupError as exc:
-                rec["message"] = f"no tf: {exc}"
+                rec["message"] = f"no tf: {exc}" + ("; no floor found" if not fit["found"] else "")
                 continue
             h, p, r, _ = _core.pose_from_optical_transform((q, t), base_frame_height)
             rec.update(tf_height=h, tf_pitch=p, tf_roll=r)
-            fit = dict(
-                _core.calibrate_from_floor(depth_metres(depth, 0.001, max_depth, depth_topic), cam, max_tilt=max_tilt)
-            )
-            rec["floor_fraction"] = float(fit["floor_fraction"])
             if fit["found"]:
-                rec.update(found=True, floor_height=fit["height"], floor_pitch=fit["pitch"], floor_roll=fit["roll"])
                 rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch", "roll")})
-            else:
-                rec["message"] = "no floor found"
     except BagError as exc:
         raise CalibrationError(str(exc)) from exc
     finally:
         reader.close()
     if not frames:
         raise CalibrationError(f"{bag}: no frame of {depth_topic} could be used: {'; '.join(problems[:3])}")
-    return TfCheck(str(bag), depth_topic, frames)
+    warnings = [cameras.warning] if cameras.warning else []
+    warnings += weak_fits([f for f in fits if f["found"]]) + refusals([f for f in fits if f.get("message")], len(fits))
+    return TfCheck(str(bag), depth_topic, frames, cameras.source, warnings)
 
 
 def describe_tf_check(check: TfCheck) -> str:
     s = check.summary()
+    if s["frames_with_tf"] == 0:
+        fl = s["floor"]
+        return (
+            f"{check.bag}: {s['frames']} frames of {check.depth_topic}, floor found in {s['frames_with_floor']}; the "
+            f"bag has no tf to the camera's frame, so there is nothing to check: the floor's pose (median over the "
+            f"frames): height {fl['height']:.4f} m, pitch {math.degrees(fl['pitch']):+.3f} deg, roll "
+            f"{math.degrees(fl['roll']):+.3f} deg (camera: {check.camera})"
+        )
     lines = [
         f"{check.bag}: {s['frames']} frames of {check.depth_topic}, floor found in {s['frames_with_floor']}; "
         "tf minus floor (tf's error, the floor taken as the truth):",
@@ -396,7 +486,8 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
 
     from ..outputs import save_figure
 
-    good = [f for f in check.frames if f["found"]]
+    good = [f for f in check.frames if f["found"] and "diff_height" in f]
+    floors = [f for f in check.frames if f["found"]]
     t0 = check.frames[0]["stamp"]
     t = np.array([f["stamp"] - t0 for f in good])
     fig, axes = plt.subplots(3, 2, figsize=(11, 7), sharex=True)
@@ -405,7 +496,13 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
         fl_v = np.array([f[f"floor_{q}"] for f in good]) * k
         ax = axes[row, 0]
         ax.plot(t, tf_v, "b.-", ms=3, label="tf (URDF + base pitch)")
-        ax.plot(t, fl_v, "r.-", ms=3, label="floor seen in the frame")
+        ax.plot(
+            [f["stamp"] - t0 for f in floors],
+            [f[f"floor_{q}"] * k for f in floors],
+            "r.-",
+            ms=3,
+            label="floor seen in the frame",
+        )
         ax.set_ylabel(f"{q} [{unit}]")
         ax.grid(True, color="0.85")
         ax = axes[row, 1]
@@ -428,3 +525,97 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+# -- the floor at any mounting roll ---------------------------------------------------------------------------
+
+
+def rotated(metres: np.ndarray, camera: _core.Camera, k: int) -> tuple[np.ndarray, _core.Camera]:
+    """The frame turned by ``k`` quarter turns counter-clockwise (``np.rot90``) and the camera that sees it: the
+    same camera rolled by k * 90 deg about its optical axis (a roll r becomes r + k * 90 deg)."""
+    cam = camera
+    for _ in range(k % 4):  # pixel (u, v) -> (v, W - 1 - u)
+        cam = _core.Camera(cam.height, cam.width, cam.fy, cam.fx, cam.cy, cam.width - 1 - cam.cx)
+    return np.ascontiguousarray(np.rot90(metres, k)), cam
+
+
+#: A floor fit that leaves more than this fraction of the valid pixels below it (labelled "below floor" at its
+#: pose) is no floor: a table or counter taken for it (real frames: right fits 0-1.3 %, wrong ones 9-65 %).
+BELOW_MAX = 0.05
+#: The cone the turned searches use at least [rad]: quarter turns of 90 deg with cones of 50 deg overlap.
+TURN_CONE = math.radians(50.0)
+
+
+def fit_floor(
+    metres: np.ndarray,
+    camera: _core.Camera,
+    max_tilt: float = math.radians(40.0),
+    sensor_model: str = "",
+    **options: Any,
+) -> dict[str, Any]:
+    """The core's floor fit (``calibrate_from_floor``) at any mounting roll, judged by what it explains.
+
+    The frame as it is is searched first (within ``max_tilt`` of the image's up); where that finds no plausible
+    floor (under WEAK_FRACTION of the pixels, or more than BELOW_MAX of them below it), the frame turned by a
+    quarter turn either way is searched too (portrait and side cameras), and the plausible fit that explains the
+    most is taken: a wider search only adds candidates, it never loses one. A fit that leaves more than BELOW_MAX
+    below it is refused (``found`` False, ``message`` says why). Also returns ``below_floor`` (that fraction)."""
+    tilt = float(max_tilt)
+    stages = [
+        [(0, t) for t in sorted({min(tilt, math.radians(40.0)), tilt})],
+        [(k, max(tilt, TURN_CONE)) for k in (1, 3)],
+    ]
+    seen: list[dict[str, Any]] = []
+    for stage in stages:
+        for k, cone in stage:
+            r = _turned_fit(metres, camera, k, cone, tilt, sensor_model, options)
+            if r is not None:
+                seen.append(r)
+        plausible = [c for c in seen if c["below_floor"] <= BELOW_MAX and c["floor_fraction"] >= WEAK_FRACTION]
+        if plausible:
+            return max(plausible, key=lambda c: c["floor_fraction"])
+    kept = [c for c in seen if c["below_floor"] <= BELOW_MAX and c["turns"] == 0]
+    if kept:
+        return max(kept, key=lambda c: c["floor_fraction"])  # weak: weak_fits says so
+    none: dict[str, Any] = {k: 0.0 for k in NO_FLOOR}
+    none.update(found=False, floor_pixels=0, below_floor=0.0, turns=0)
+    if seen:
+        worst = min(seen, key=lambda c: c["below_floor"])
+        none["message"] = (
+            f"the floor-like plane found ({worst['height']:.2f} m below the camera, pitch "
+            f"{math.degrees(worst['pitch']):.0f} deg, roll {math.degrees(worst['roll']):.0f} deg) leaves "
+            f"{100 * worst['below_floor']:.0f} % of the pixels below it: a table or counter, not the floor"
+        )
+    return none
+
+
+NO_FLOOR = ("height", "pitch", "roll", "height_std", "pitch_std", "roll_std", "floor_fraction", "rms")
+
+
+def _turned_fit(
+    metres: np.ndarray, camera: _core.Camera, k: int, cone: float, max_tilt: float, model: str, options: dict[str, Any]
+) -> dict[str, Any] | None:
+    """The core's fit of the frame turned by k quarter turns, as the pose of the camera as mounted, with the
+    fraction of the pixels it leaves below the floor; None where nothing is found or the pose is out of range
+    (|pitch| > max_tilt, |roll| beyond 90 deg by more than 1 deg: the Config takes +-90 deg; within it, clamped)."""
+    m, cam = rotated(metres, camera, k)
+    r = dict(_core.calibrate_from_floor(m, cam, max_tilt=cone, **options))
+    if not r["found"]:
+        return None
+    roll = math.remainder(r["roll"] - k * math.pi / 2, 2 * math.pi)
+    if abs(roll) > math.pi / 2 + math.radians(1.0) or (k and abs(r["pitch"]) > max_tilt):
+        return None
+    r.update(roll=max(-math.pi / 2, min(math.pi / 2, roll)), turns=k)
+    config = {"sensor_model": model} if model else {}
+    cfg = _core.Config(
+        **config,
+        sensor_height=r["height"],
+        sensor_pitch=r["pitch"],
+        sensor_roll=r["roll"],
+        refine_floor=False,
+        ceiling_height=max(3.0, r["height"] + 0.5),
+    )
+    labels = np.asarray(_core.Pipeline(camera, cfg).process(metres).labels)
+    valid = max(1, int((labels != _core.LABELS["invalid"]).sum()))
+    r["below_floor"] = float((labels == _core.LABELS["below_floor"]).sum()) / valid
+    return r

@@ -16,11 +16,12 @@ from pathlib import Path
 from typing import Any
 
 from .. import _core
-from ..bags.messages import IMAGE, LASER_SCAN, camera_from_info, depth_array, header, image_message, stamp
-from ..bags.reader import ROS1, BagReader, CameraInfos, image_topic_of, open_bag, pick_topics
+from ..bags.messages import IMAGE, LASER_SCAN, depth_array, header, image_message, stamp
+from ..bags.reader import ROS1, BagReader, Cameras, image_topic_of, open_bag, pick_topics
 from ..bags.ros1 import Bag, BagError, Damage
 from ..bags.tf import TfBuffer, read_tf
 from ..bags.writer import BagWriter, output_format
+from ..intrinsics import Intrinsics
 from ..outputs import OutputError, check_outputs
 
 ReplayError = BagError  #: a bag or an option the replay cannot use; the message says which and why
@@ -54,6 +55,19 @@ class ReplayOptions:
     skip_bad: bool = False  #: skip messages that cannot be read instead of stopping
     format: str | None = None  #: output format (ros1, sqlite3, mcap); default: the input's
     config: dict[str, Any] = field(default_factory=dict)  #: Config fields
+    #: fx, fy, cx, cy [px] (and width, height; 0: the images'): the depth camera where the bag has no CameraInfo
+    #: (they win over one it has); without them and without a camera_info, config's sensor_model's nominal camera
+    intrinsics: list[float] | None = None
+
+    def cameras(self, bag: BagReader, info_topic: str | None, on_damage: Any = None) -> Cameras:
+        """Where each frame's camera comes from (:class:`kinect_pipeline.bags.Cameras`)."""
+        intr = None if self.intrinsics is None else Intrinsics.from_list(self.intrinsics)
+        return Cameras(bag, info_topic, intr, self.config.get("sensor_model"), on_damage)
+
+    def topics(self, bag: BagReader) -> tuple[str, str | None]:
+        """The depth topic and its camera_info topic (None where the intrinsics come from elsewhere)."""
+        need = self.intrinsics is None and not self.config.get("sensor_model")
+        return pick_topics(list(bag.connections), self.depth_topic, self.info_topic, need_info=need)
 
 
 @dataclass
@@ -72,7 +86,9 @@ class ReplayReport:
     scan_topic: str = ""
     cliff_topic: str = ""  #: "" when the cliff scan is off
     format: str = ""  #: of the output
+    camera: str = ""  #: where the frames' camera came from
     problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)  #: results that rest on a guess (the nominal camera)
 
 
 META_TOPIC = "/kinect_pipeline/replay_info"  #: first message of every replay output: what made it (JSON)
@@ -105,8 +121,8 @@ class _Frames:
     """The per-frame state of a replay: camera_info by stamp, the pipeline (made anew when the camera changes) and
     the frames it processed since then, so that a resumed replay can restore its confidence history exactly."""
 
-    def __init__(self, bag: BagReader, tf: TfBuffer, infos: CameraInfos, opts: ReplayOptions, report: ReplayReport):
-        self.bag, self.tf, self.infos, self.opts, self.report = bag, tf, infos, opts, report
+    def __init__(self, bag: BagReader, tf: TfBuffer, cameras: Cameras, opts: ReplayOptions, report: ReplayReport):
+        self.bag, self.tf, self.cameras, self.opts, self.report = bag, tf, cameras, opts, report
         self.depth_topic = report.depth_topic
         self.config = _core.Config(**opts.config)
         self.window = int(self.config.confidence_window)
@@ -122,14 +138,12 @@ class _Frames:
         if note:
             self.report.problems.append(f"{self.depth_topic} at {at:.3f} s: {what}")
 
-    def _camera(self, img: Any, note: bool) -> Any:
-        info, why = self.infos.for_stamp(stamp(img))
-        if info is None:
-            raise BagError(why)
+    def _camera(self, img: Any, depth: Any, note: bool) -> Any:
+        cam, why = self.cameras.for_frame(img, depth)
         if why and note and not self.info_notes:
             self.info_notes.add(why)
             self._note(stamp(img), f"{why} (and maybe for later frames)", note)
-        return camera_from_info(info)
+        return cam
 
     def _use(self, cam: Any) -> None:
         if self.camera is None or repr(cam) != repr(self.camera):
@@ -141,8 +155,8 @@ class _Frames:
         """The core's result for a depth message at the tf pose of its stamp, or None when the frame is skipped."""
         at, report, opts = stamp(img), self.report, self.opts
         try:
-            cam = self._camera(img, note)
             depth = depth_array(img)
+            cam = self._camera(img, depth, note)
         except BagError as exc:
             self._note(at, f"{exc}; frame skipped", note)
             return None
@@ -164,6 +178,14 @@ class _Frames:
                 report.pose_fallback += 1
                 if report.pose_fallback == 1:
                     self._note(at, f"{exc}; static pose used (and later)", note)
+                    if not any(k in opts.config for k in ("sensor_height", "sensor_pitch", "sensor_roll")):
+                        report.warnings.append(
+                            f"frames without tf (the first at {at:.3f} s) were processed at the Config's default pose "
+                            f"(height {self.config.sensor_height:g} m, pitch {self.config.sensor_pitch:g}, roll "
+                            f"{self.config.sensor_roll:g} rad), not this camera's: give it with --param sensor_height="
+                            "H --param sensor_pitch=P --param sensor_roll=R (calibrate --bag gives the floor's), or "
+                            "--pose-fallback skip"
+                        )
             res = self.pipe.process(depth, stamp=at)
         self.since += 1
         self.recent.append(img)
@@ -173,7 +195,7 @@ class _Frames:
     def processed_before(self, img: Any, floor_state: tuple[Any, ...] | None) -> None:
         """A frame whose outputs an earlier run wrote: follow the state without processing it."""
         try:
-            cam = self._camera(img, note=False)
+            cam = self._camera(img, depth_array(img), note=False)
         except BagError:
             return
         self._use(cam)
@@ -355,7 +377,7 @@ class _Run:
             r.bad_messages += d.lost or 0
             r.problems.append(f"damaged: {d}")
         r.format = output_format(out, bag.format, opts.format)
-        depth, self.info_topic = pick_topics(list(bag.connections), opts.depth_topic, opts.info_topic)
+        depth, self.info_topic = opts.topics(bag)
         image = image_topic_of(depth)
         ns = image.rsplit("/", 2)[0] if image.count("/") >= 2 else ""
         r.depth_topic, r.scan_topic = depth, opts.scan_topic or f"{ns}/scan"
@@ -403,10 +425,11 @@ class _Run:
     def go(self, resume: bool, show_progress: bool) -> ReplayReport:
         r = self.report
         tf = read_tf(self.bag, self.damaged)
-        infos = CameraInfos(self.bag, self.info_topic, self.damaged)
+        cameras = self.opts.cameras(self.bag, self.info_topic, self.damaged)
+        r.camera = cameras.source
         if resume:
             self._start_resume()
-        self.frames = _Frames(self.bag, tf, infos, self.opts, r)
+        self.frames = _Frames(self.bag, tf, cameras, self.opts, r)
         try:
             single = self.out.suffix.lower() in (".mcap", ".db3")
             with BagWriter(self.tmp, r.format, single_file=single, name=self.out.name) as w:
@@ -420,6 +443,8 @@ class _Run:
                 f"{reasons(r.problems) or 'the bag has none'}; nothing written"
             )
         r.seconds = time.monotonic() - self.started
+        if cameras.warning:
+            r.warnings.append(cameras.warning)
         os.replace(self.tmp, self.out)
         self.old.unlink(missing_ok=True)
         return r
@@ -628,5 +653,6 @@ def format_report(r: ReplayReport) -> str:
         )
     if r.stopped_early:
         lines.append(f"  stopped after {r.frames} frames (--max-frames): --resume continues it")
+    lines.append(f"  camera: {r.camera}")
     lines += [f"  note: {p}" for p in r.problems[:20]]
     return "\n".join(lines)

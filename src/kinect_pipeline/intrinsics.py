@@ -1,0 +1,132 @@
+"""The depth camera's intrinsics where a recording has no CameraInfo (bags of robots often have none, and folders of
+frames never do): given as numbers (``FX FY CX CY [W H]``, with or without commas), read from a camera_info YAML as
+``camera_calibration`` writes it, or a sensor preset's nominal camera scaled to the image size (a guess: said in a
+warning). The cameras themselves are the core's (``_core.Camera``), checked there."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from . import _core
+
+#: How the option is spelt in messages.
+HOW = "--intrinsics FX,FY,CX,CY[,W,H] (or FX FY CX CY [W H], or a camera_info YAML as camera_calibration writes it)"
+
+
+class IntrinsicsError(ValueError):
+    """Intrinsics that cannot be used; the message names the value and what was expected."""
+
+
+@dataclass(frozen=True)
+class Intrinsics:
+    """fx, fy, cx, cy [px] and the image size they are for (0 x 0: any size the images have)."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+    width: int = 0
+    height: int = 0
+    source: str = "--intrinsics"  #: where they came from, for messages
+
+    def as_list(self) -> list[float]:
+        """fx, fy, cx, cy, width, height (what a replay records of them)."""
+        return [self.fx, self.fy, self.cx, self.cy, float(self.width), float(self.height)]
+
+    @staticmethod
+    def from_list(values: list[float] | tuple[float, ...], source: str = "--intrinsics") -> Intrinsics:
+        """Of 4 (fx, fy, cx, cy) or 6 (and width, height) numbers."""
+        v = [float(x) for x in values]
+        if len(v) not in (4, 6):
+            raise IntrinsicsError(f"{source}: {len(v)} numbers: expected FX FY CX CY, or FX FY CX CY W H")
+        for name, x in zip(("fx", "fy", "cx", "cy", "width", "height"), v, strict=False):
+            if not math.isfinite(x):
+                raise IntrinsicsError(f"{source}: {name} = {x}: expected a finite number")
+        size = (v[4], v[5]) if len(v) == 6 else (0.0, 0.0)
+        if size != (int(size[0]), int(size[1])) or min(size) < 0:
+            raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels")
+        return Intrinsics(v[0], v[1], v[2], v[3], int(size[0]), int(size[1]), source)
+
+    def camera(self, width: int, height: int) -> Any:
+        """The core's camera for images of ``width`` x ``height``; a size that differs from theirs, or values the
+        core refuses, raise IntrinsicsError naming them."""
+        if self.width and (self.width, self.height) != (width, height):
+            raise IntrinsicsError(
+                f"{self.source}: intrinsics for {self.width}x{self.height} images, but the depth images are "
+                f"{width}x{height}"
+            )
+        try:
+            return _core.Camera(int(width), int(height), self.fx, self.fy, self.cx, self.cy)
+        except (ValueError, TypeError) as exc:
+            raise IntrinsicsError(f"{self.source}: {exc}") from exc
+
+
+def parse_intrinsics(values: list[str]) -> Intrinsics:
+    """What ``--intrinsics`` was given: numbers (``213 213 212 120``, ``213,213,212,120,424,240``) or one camera_info
+    YAML file. Raises IntrinsicsError naming the value."""
+    text = " ".join(values).replace(",", " ").split()
+    if len(values) == 1 and not _numbers(text):
+        return read_camera_info_yaml(Path(values[0]))
+    if not _numbers(text):
+        raise IntrinsicsError(
+            f"--intrinsics {' '.join(values)}: expected numbers, or one camera_info YAML file ({HOW})"
+        )
+    return Intrinsics.from_list([float(x) for x in text], f"--intrinsics {' '.join(values)}")
+
+
+def _numbers(items: list[str]) -> bool:
+    try:
+        [float(x) for x in items]
+    except ValueError:
+        return False
+    return bool(items)
+
+
+def read_camera_info_yaml(path: Path) -> Intrinsics:
+    """fx, fy, cx, cy and the size of a camera_info YAML as ``camera_calibration`` (camera_calibration_parsers)
+    writes it: ``image_width``, ``image_height``, ``camera_matrix: {rows: 3, cols: 3, data: [...]}``."""
+    import yaml
+
+    where = f"--intrinsics {path}"
+    if not path.is_file():
+        raise IntrinsicsError(f"{where}: no such file (expected numbers or a camera_info YAML; {HOW})")
+    try:
+        doc = yaml.safe_load(path.read_text(errors="replace"))
+    except yaml.YAMLError as exc:
+        raise IntrinsicsError(f"{where}: not YAML ({str(exc).splitlines()[0]})") from exc
+    try:
+        k = [float(x) for x in doc["camera_matrix"]["data"]]
+        width, height = int(doc["image_width"]), int(doc["image_height"])
+    except (TypeError, KeyError, ValueError) as exc:
+        raise IntrinsicsError(
+            f"{where}: not a camera_info YAML: expected image_width, image_height and camera_matrix: data: "
+            "[fx, 0, cx, 0, fy, cy, 0, 0, 1] (as camera_calibration writes it)"
+        ) from exc
+    if len(k) != 9:
+        raise IntrinsicsError(f"{where}: camera_matrix has {len(k)} values: expected 9 (3x3, row-major)")
+    return Intrinsics(k[0], k[4], k[2], k[5], width, height, where)
+
+
+def nominal_camera(model: str, width: int, height: int) -> tuple[Any, str]:
+    """The sensor preset's nominal camera, scaled to ``width`` x ``height`` where the aspect ratio is the same (a
+    camera run at half resolution), and the warning that it is only a guess. Another aspect ratio raises
+    IntrinsicsError."""
+    cam = _core.sensor_model(model)["camera"]
+    sx, sy = width / cam.width, height / cam.height
+    if abs(sx - sy) > 0.01 * max(sx, sy):
+        raise IntrinsicsError(
+            f"--sensor-model {model}: its nominal camera is {cam.width}x{cam.height}, the depth images are "
+            f"{width}x{height} (another aspect ratio): give {HOW}"
+        )
+    out = _core.Camera(
+        int(width), int(height), cam.fx * sx, cam.fy * sy, (cam.cx + 0.5) * sx - 0.5, (cam.cy + 0.5) * sy - 0.5
+    )
+    scaled = f" scaled to {width}x{height}" if (sx, sy) != (1.0, 1.0) else ""
+    warning = (
+        f"no camera intrinsics given: the nominal camera of --sensor-model {model} ({cam.width}x{cam.height}, "
+        f"fx {cam.fx:g}){scaled}: {out!r}; ranges and the floor are only as right as this guess: give {HOW}"
+    )
+    return out, warning
