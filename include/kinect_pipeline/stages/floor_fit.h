@@ -114,12 +114,11 @@ public:
 
 private:
   struct Plane;
-  struct Ray  // a row's term of the level-frame ray per metre of depth (forward, left, up)
-  {
-    float x, y, z;
-  };
-  /** Whether sampled pixel (u, row of ray) at depth z lies on a vertical surface, by the depth z2 kGradRows below. */
-  bool isVertical(int u, float z, const Ray& ray, const Ray& ray2, float z2, float t) const;
+  /**
+   * Whether sampled pixel u at depth z of a row whose rise term is rz lies on a vertical surface, by the depth z2
+   * of the pixel kGradRows below (rise term rz2); t: t(z) [m].
+   */
+  bool isVertical(int u, float z, float rz, float rz2, float z2, float t) const;
   template <typename T>
   void sample(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
               const SensorPose& prior);

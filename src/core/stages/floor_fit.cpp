@@ -157,17 +157,16 @@ struct FloorFit::Plane
   double roll_shift = 0.0;  // the same of the roll term (c y) alone
 };
 
-bool FloorFit::isVertical(int u, float z, const Ray& ray, const Ray& ray2, float z2, float t) const
+bool FloorFit::isVertical(int u, float z, float rz, float rz2, float z2, float t) const
 {
   if (!(z2 > 0.0f))
     return false;  // no depth below: no evidence either way
-  const float rise = col_z_[u] + ray.z, rise2 = col_z_[u] + ray2.z;
-  const float hor = std::hypot(col_x_[u] + ray.x, col_y_[u] + ray.y);
-  const float hor2 = std::hypot(col_x_[u] + ray2.x, col_y_[u] + ray2.y);
   // The depth below if the pixel is floor (the plane at its height: h + z R = h + z2 R2), and if it is a vertical
-  // surface (the same horizontal range).
+  // surface: the same horizontal range, so about the same depth (kGradRows rows change a ray's horizontal length by
+  // well under 1 %, the floor's depth by far more wherever the two can be told apart).
+  const float rise = col_z_[u] + rz, rise2 = col_z_[u] + rz2;
   const float on_floor = rise2 < 0.0f ? z * rise / rise2 : std::numeric_limits<float>::infinity();
-  const float on_wall = z * hor / hor2;
+  const float on_wall = z;
   return std::fabs(on_floor - on_wall) > t && std::fabs(z2 - on_wall) < std::fabs(z2 - on_floor);
 }
 
@@ -210,9 +209,7 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
     const T* row = depth.ptr<T>(r);
     const int r2 = r + kGradRows;  // the row the column's depth gradient is read against
     const T* below = r2 < cam.height ? depth.ptr<T>(r2) : nullptr;
-    const double yn2 = (r2 - cam.cy) / cam.fy;
-    const Ray ray2{static_cast<float>(m[1] * yn2 + m[2]), static_cast<float>(m[4] * yn2 + m[5]),
-                   static_cast<float>(m[7] * yn2 + m[8])};
+    const float rz2 = static_cast<float>(m[7] * ((r2 - cam.cy) / cam.fy) + m[8]);
     for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
     {
       const T v = row[u];
@@ -223,7 +220,7 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
       const float t = thresholdOf(lut, v, z), band = -rise * t;
       if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
         continue;
-      if (below && isVertical(u, z, {rx, ry, rz}, ray2, metresOf(below[u], scale), t))
+      if (below && isVertical(u, z, rz, rz2, metresOf(below[u], scale), t))
         continue;
       x_[n] = x;
       y_[n] = y;

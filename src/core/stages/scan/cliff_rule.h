@@ -52,15 +52,16 @@ struct CliffRule
       return c;
     const double k = config.cliff_min_drop / (floor_h + config.cliff_min_drop);
     const std::vector<CurvePoint>& curve = config.threshold_curve;
-    std::vector<double> knots = {0.0};
-    for (const CurvePoint& p : curve)
-      if (p.depth > 0.0 && p.depth < max_range)
-        knots.push_back(p.depth);
-    knots.push_back(max_range);
+    // The segments' ends: 0, the curve's points below max_range, max_range (no allocation: a frame's work).
+    const auto knot = [&](std::size_t i) {
+      return i == 0 ? 0.0 : (i <= curve.size() ? std::min(curve[i - 1].depth, max_range) : max_range);
+    };
     double best = 0.0;
-    for (std::size_t i = 0; i + 1 < knots.size(); ++i)
+    for (std::size_t i = 0; i <= curve.size(); ++i)
     {
-      const double d0 = knots[i], d1 = knots[i + 1];
+      const double d0 = knot(i), d1 = knot(i + 1);
+      if (!(d1 > d0))
+        continue;
       const double f0 = d0 * k - evaluateCurve(curve, d0), f1 = d1 * k - evaluateCurve(curve, d1);
       if (f1 >= 0.0)
         best = d1;  // visible to the segment's end (entering the range here or already in it)
