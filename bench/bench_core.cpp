@@ -17,7 +17,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/tools/synthetic.h"
 
 namespace
 {

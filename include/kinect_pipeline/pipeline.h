@@ -12,30 +12,17 @@
 
 #include <opencv2/core.hpp>
 
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/encoding.h"
-#include "kinect_pipeline/floor_fit.h"
-#include "kinect_pipeline/plane_model.h"
-#include "kinect_pipeline/scan.h"
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/plane_model.h"
+#include "kinect_pipeline/model/threshold_curve.h"
+#include "kinect_pipeline/stages/floor_fit.h"
+#include "kinect_pipeline/stages/scan.h"
+#include "kinect_pipeline/types.h"
 
 namespace kinect_pipeline
 {
-
-/** Per-pixel labels of FrameResult::labels. */
-enum Label : std::uint8_t
-{
-  kKept = 0,          ///< an obstacle (or person) between the floor and the ceiling plane
-  kInvalid = 1,       ///< no depth (after the opening filled what it could)
-  kFloor = 2,         ///< within t(d) of the predicted floor
-  kAboveCeiling = 3,  ///< beyond the predicted ceiling plane
-  kBelowFloor = 4,    ///< more than t(d) beyond the floor: a hole, a stair down
-};
-constexpr int kNumLabels = 5;
-/** The labels' names, indexed by value: the one list the binding, the tools and the node use. */
-constexpr std::array<const char*, kNumLabels> kLabelNames = {"kept", "invalid", "floor", "above_ceiling",
-                                                             "below_floor"};
 
 /** Wall-clock time of each stage of the last frame [ms]. */
 struct StageTimes
@@ -162,7 +149,7 @@ private:
   ThresholdLut lut_;
   Encoding lut_encoding_ = Encoding::kMono8;
   bool lut_valid_ = false;
-  std::unique_ptr<detail::FrameWork> work_;  ///< the frames' buffers (src/core/frame_work.h)
+  std::unique_ptr<detail::FrameWork> work_;  ///< the frames' buffers (src/core/pipeline/frame_work.h)
 };
 
 }  // namespace kinect_pipeline

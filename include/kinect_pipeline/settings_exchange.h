@@ -16,8 +16,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
 #include "kinect_pipeline/pipeline.h"
 
 namespace kinect_pipeline

@@ -13,19 +13,19 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "kinect_pipeline/calibration.h"
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/compressed_depth.h"
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/config_fields.h"
-#include "kinect_pipeline/depth_image.h"
-#include "kinect_pipeline/morphology.h"
+#include "kinect_pipeline/io/compressed_depth.h"
+#include "kinect_pipeline/io/depth_image.h"
+#include "kinect_pipeline/io/visualize.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/config_table.h"
+#include "kinect_pipeline/model/pose.h"
+#include "kinect_pipeline/model/sensor_model.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/pose.h"
-#include "kinect_pipeline/sensor_model.h"
-#include "kinect_pipeline/synthetic.h"
-#include "kinect_pipeline/threshold_curve.h"
-#include "kinect_pipeline/visualize.h"
+#include "kinect_pipeline/stages/opening_kernels.h"
+#include "kinect_pipeline/tools/calibration.h"
+#include "kinect_pipeline/tools/synthetic.h"
 
 namespace py = pybind11;
 using namespace kinect_pipeline;

@@ -8,10 +8,10 @@
 
 #include <sensor_msgs/image_encodings.h>
 
-#include "kinect_pipeline/compressed_depth.h"
-#include "kinect_pipeline/depth_image.h"
-#include "kinect_pipeline/pose.h"
-#include "kinect_pipeline/visualize.h"
+#include "kinect_pipeline/io/compressed_depth.h"
+#include "kinect_pipeline/io/depth_image.h"
+#include "kinect_pipeline/io/visualize.h"
+#include "kinect_pipeline/model/pose.h"
 
 namespace kinect_pipeline
 {

@@ -13,8 +13,8 @@
 #include <sensor_msgs/LaserScan.h>
 #include <tf2/LinearMath/Quaternion.h>
 
-#include "kinect_pipeline/compressed_depth.h"
-#include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/io/compressed_depth.h"
+#include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/ros/conversions.h"
 
 namespace kinect_pipeline

@@ -9,9 +9,9 @@
 #include <boost/any.hpp>
 #include <xmlrpcpp/XmlRpcValue.h>
 
-#include "kinect_pipeline/config_fields.h"
-#include "kinect_pipeline/sensor_model.h"
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/model/config_table.h"
+#include "kinect_pipeline/model/sensor_model.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 
 namespace kinect_pipeline
 {

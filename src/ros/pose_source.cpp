@@ -7,7 +7,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2/LinearMath/Quaternion.h>
 
-#include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/ros/conversions.h"
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
 

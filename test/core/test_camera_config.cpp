@@ -3,9 +3,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/config_fields.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/config_table.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

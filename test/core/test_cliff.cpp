@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/tools/synthetic.h"
 #include "test_scenes.h"
 #include "test_util.h"
 

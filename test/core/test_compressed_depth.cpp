@@ -13,7 +13,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "kinect_pipeline/compressed_depth.h"
+#include "kinect_pipeline/io/compressed_depth.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

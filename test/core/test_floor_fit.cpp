@@ -1,4 +1,4 @@
-// The floor refinement (floor_fit.h) against obvious references written here: the renderer's true pose, a plain
+// The floor refinement (stages/floor_fit.h) against obvious references written here: the renderer's true pose, a plain
 // least-squares plane through the fit's own sampled pixels, and the pose/plane geometry by explicit matrices.
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "kinect_pipeline/floor_fit.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/stages/floor_fit.h"
+#include "kinect_pipeline/tools/synthetic.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

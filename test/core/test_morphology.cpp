@@ -8,9 +8,9 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "kinect_pipeline/encoding.h"
-#include "kinect_pipeline/morphology.h"
-#include "kinect_pipeline/scan.h"  // detail::setVectorPaths
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/stages/opening_kernels.h"
+#include "kinect_pipeline/stages/scan.h"  // detail::setVectorPaths
 #include "test_util.h"
 
 using namespace kinect_pipeline;

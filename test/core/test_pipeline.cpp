@@ -11,13 +11,13 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
-#include "kinect_pipeline/threshold_curve.h"
-#include "plane_rule.h"      // private to the core (src/core): the rule, the rescue's move
+#include "kinect_pipeline/tools/synthetic.h"
+#include "stages/labels/by_value.h"  // private to the core: rescueMove
+#include "stages/labels/rule.h"      // private to the core (src/core): the rule, the rescue's move
 #include "test_scenes.h"
 #include "test_util.h"
-#include "value_labeller.h"  // private to the core: rescueMove
 
 using namespace kinect_pipeline;
 using kp_test::kInf;

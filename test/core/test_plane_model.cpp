@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "kinect_pipeline/plane_model.h"
+#include "kinect_pipeline/model/plane_model.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "kinect_pipeline/pose.h"
+#include "kinect_pipeline/model/pose.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

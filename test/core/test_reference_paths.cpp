@@ -12,7 +12,7 @@
 #include <tuple>
 
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/tools/synthetic.h"
 #include "test_scenes.h"
 #include "test_util.h"
 

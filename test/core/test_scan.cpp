@@ -3,7 +3,7 @@
 #include <cmath>
 #include <limits>
 
-#include "kinect_pipeline/scan.h"
+#include "kinect_pipeline/stages/scan.h"
 
 using namespace kinect_pipeline;
 

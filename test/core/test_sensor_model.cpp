@@ -3,9 +3,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/sensor_model.h"
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/sensor_model.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 
 using namespace kinect_pipeline;
 

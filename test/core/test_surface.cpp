@@ -7,9 +7,9 @@
 #include <cmath>
 #include <vector>
 
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/synthetic.h"
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/tools/synthetic.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

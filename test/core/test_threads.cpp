@@ -16,7 +16,7 @@
 
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/settings_exchange.h"
-#include "kinect_pipeline/synthetic.h"
+#include "kinect_pipeline/tools/synthetic.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "test_util.h"
 
 using kp_test::slowCurve;

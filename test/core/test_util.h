@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
 
 namespace kp_test
 {

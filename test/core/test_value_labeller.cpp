@@ -1,5 +1,5 @@
-// The labelling by value thresholds (src/core/value_labeller.h, private to the core) against the reference labeller,
-// the rule pixel by pixel (pixel_labeller.h), row by row: wherever it takes a row, the same labels, cleaned depths,
+// The labelling by value thresholds (src/core/stages/labels/by_value.h, private to the core) against the reference labeller,
+// the rule pixel by pixel (stages/labels/per_pixel.h), row by row: wherever it takes a row, the same labels, cleaned depths,
 // counts and rescue, bit for bit. Rows at every rise from steeply down to up, whose values crowd around the floor
 // band's two edges and the ceiling plane, with the rescue's raw values above the opened ones, for curves the proof
 // holds for, one whose 1 cm cells make d - t dip (windowed), and one too steep for it; 8 and 16 bits.
@@ -12,10 +12,10 @@
 #include <string>
 #include <vector>
 
-#include "kinect_pipeline/threshold_curve.h"
-#include "pixel_labeller.h"
-#include "plane_rule.h"
-#include "value_labeller.h"
+#include "kinect_pipeline/model/threshold_curve.h"
+#include "stages/labels/by_value.h"
+#include "stages/labels/per_pixel.h"
+#include "stages/labels/rule.h"
 
 using namespace kinect_pipeline;
 using namespace kinect_pipeline::detail;

@@ -19,13 +19,13 @@
 
 #include <opencv2/core.hpp>
 
-#include "kinect_pipeline/calibration.h"
-#include "kinect_pipeline/config.h"
-#include "kinect_pipeline/config_fields.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/config_table.h"
+#include "kinect_pipeline/model/pose.h"
+#include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/pose.h"
 #include "kinect_pipeline/settings_exchange.h"
-#include "kinect_pipeline/threshold_curve.h"
+#include "kinect_pipeline/tools/calibration.h"
 
 using namespace kinect_pipeline;
 
@@ -80,7 +80,7 @@ Camera camera(FuzzedDataProvider& in)
   return c;
 }
 
-/** Where a field's values are drawn: its valid range (config_fields.h), narrowed where that range is far wider
+/** Where a field's values are drawn: its valid range (model/config_table.h), narrowed where that range is far wider
  *  than a fuzzer's 48-pixel images need (and sometimes reaching below it, to the values Config refuses). */
 std::pair<double, double> span(const ConfigField& f)
 {

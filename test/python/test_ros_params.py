@@ -101,7 +101,7 @@ def test_cfg_declares_every_field_of_the_core_table_with_its_type_and_range() ->
 
 
 def test_the_core_table_lists_every_member_of_config() -> None:
-    header = (ROOT / "include/kinect_pipeline/config.h").read_text()
+    header = (ROOT / "include/kinect_pipeline/model/config.h").read_text()
     body = header[header.index("struct Config\n{") : header.index("std::vector<std::string> problems() const")]
     members = re.findall(r"^  [\w:<>]+ (\w+) = ", body, re.M)
     assert members == [f["name"] for f in kp.CONFIG_FIELDS]

@@ -9,7 +9,7 @@
 #include <boost/make_shared.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "kinect_pipeline/config_fields.h"
+#include "kinect_pipeline/model/config_table.h"
 #include "kinect_pipeline/ros/conversions.h"
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
 #include "kinect_pipeline/ros/parameters.h"

@@ -15,10 +15,10 @@
 #include <sensor_msgs/LaserScan.h>
 #include <std_msgs/Header.h>
 
-#include "kinect_pipeline/camera.h"
-#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/pipeline.h"
-#include "kinect_pipeline/pose.h"
 
 namespace kinect_pipeline
 {

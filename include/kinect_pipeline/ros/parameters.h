@@ -16,7 +16,7 @@
 #include <sensor_msgs/CameraInfo.h>
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
-#include "kinect_pipeline/config.h"
+#include "kinect_pipeline/model/config.h"
 
 namespace kinect_pipeline
 {

@@ -1,0 +1,58 @@
+/**
+ * @file depth_image.h
+ * @brief Depth images and camera intrinsics as messages carry them (sensor_msgs/Image and CameraInfo fields),
+ *        read into the core's types without any ROS type: the ROS layer (ros/conversions.h) and the Python tools
+ *        (which read bags with rosbags) share these checks and messages.
+ */
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "kinect_pipeline/model/camera.h"
+
+namespace kinect_pipeline
+{
+
+/** The fields of a sensor_msgs/Image, by reference (data is not copied). */
+struct ImageBuffer
+{
+  std::string encoding;        ///< e.g. "16UC1"
+  std::uint32_t width = 0;     ///< [px]
+  std::uint32_t height = 0;    ///< [px]
+  std::uint32_t step = 0;      ///< bytes per row
+  bool is_bigendian = false;   ///< byte order of multi-byte pixels
+  const std::uint8_t* data = nullptr;
+  std::size_t size = 0;        ///< bytes at data
+};
+
+/** @return true for the depth encodings depthFromBuffer() reads: 8UC1, mono8, 16UC1, mono16, 32FC1. */
+bool isSupportedDepthEncoding(const std::string& encoding);
+
+/**
+ * @brief A cv::Mat over a depth image's data, without a copy where the byte order is the host's.
+ * @param buffer where a byte-swapped copy is kept when the image's byte order differs from the host's
+ * @return CV_8UC1 for "8UC1"/"mono8" (normalised with max_depth), CV_16UC1 for "16UC1"/"mono16" (mm),
+ *         CV_32FC1 for "32FC1" (m)
+ * @throw std::invalid_argument for another encoding, empty data, a step smaller than width * pixel size or
+ *        data shorter than step * height, quoting the values.
+ */
+cv::Mat depthFromBuffer(const ImageBuffer& image, cv::Mat& buffer);
+
+/**
+ * @brief Camera model from a CameraInfo's size and K (row-major 3x3): fx = K[0], fy = K[4], cx = K[2], cy = K[5]
+ *        (rectified depth).
+ * @param frame_id the camera_info's frame, quoted in the message for K[0] = 0
+ * @throw std::invalid_argument for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values, quoting them.
+ */
+Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
+                            const std::string& frame_id);
+
+/** @return true where the host stores multi-byte values most significant byte first. */
+bool hostIsBigEndian();
+
+}  // namespace kinect_pipeline

@@ -1,0 +1,44 @@
+/**
+ * @file types.h
+ * @brief The core's basic types, shared by every layer above it: the sensor's pose, a correction of it, and the
+ *        per-pixel labels. Depends on nothing of the package (docs/core_design.md, "Layers").
+ */
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+namespace kinect_pipeline
+{
+
+/** The sensor's pose relative to the floor for one frame (sensor mounting and base motion together). */
+struct SensorPose
+{
+  double height;  ///< optical centre above the floor [m], > 0
+  double pitch;   ///< [rad], + looks down, |pitch| <= pi/2
+  double roll;    ///< [rad], + right side down, |roll| <= pi/2
+};
+
+/** A correction of a sensor pose, added term by term: height [m], pitch and roll [rad]. */
+struct PoseCorrection
+{
+  double height = 0.0;
+  double pitch = 0.0;
+  double roll = 0.0;
+};
+
+/** Per-pixel labels of FrameResult::labels. */
+enum Label : std::uint8_t
+{
+  kKept = 0,          ///< an obstacle (or person) between the floor and the ceiling plane
+  kInvalid = 1,       ///< no depth (after the opening filled what it could)
+  kFloor = 2,         ///< within t(d) of the predicted floor
+  kAboveCeiling = 3,  ///< beyond the predicted ceiling plane
+  kBelowFloor = 4,    ///< more than t(d) beyond the floor: a hole, a stair down
+};
+constexpr int kNumLabels = 5;
+/** The labels' names, indexed by value: the one list the binding, the tools and the node use. */
+constexpr std::array<const char*, kNumLabels> kLabelNames = {"kept", "invalid", "floor", "above_ceiling",
+                                                             "below_floor"};
+
+}  // namespace kinect_pipeline

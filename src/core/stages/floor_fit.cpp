@@ -1,0 +1,438 @@
+// The floor refinement (stages/floor_fit.h). Design notes and measurements: docs/floor_refinement.md.
+#include "kinect_pipeline/stages/floor_fit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "base/simd.h"
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/pose.h"
+
+namespace kinect_pipeline
+{
+namespace
+{
+constexpr double kHalfPi = 1.57079632679489661923;
+// Pixels sampled per frame, about (a regular grid of every stride-th pixel): a few thousand give the plane to a
+// fraction of a millimetre at a few microseconds.
+constexpr double kSamples = 2500.0;
+constexpr int kRowStep = 2;
+constexpr double kGolden = 0.6180339887498949;
+// Farther pixels are not sampled: the depth noise and the band of pose uncertainty both grow with distance.
+constexpr float kMaxFitDepth = 4.0f;
+// The fit's noise scale of a pixel is band / kBandSigmas: t(d) is about 4.5 sigma + 2 cm for the default curve.
+constexpr float kBandSigmas = 3.0f;
+// Tukey's biweight constant (95 % efficiency on Gaussian noise) in units of the noise scale.
+constexpr float kTukey = 4.685f;
+// The iterations grow a region from the robot outwards while the biweight's window narrows: the floor is the
+// surface the robot stands on, so the nearest floor fixes the plane first (wide window: the whole band of pose
+// uncertainty), and farther pixels join once the plane is known well enough to tell a lower level beyond a stair
+// from the floor. Radii beyond the nearest sampled floor [m] (Inf: all) and window widths in noise scales.
+struct Stage
+{
+  float radius, window;
+};
+constexpr Stage kStages[] = {{1.0f, 8.0f}, {2.0f, 4.0f}, {1e9f, 2.0f}, {1e9f, 1.0f}, {1e9f, 1.0f}, {1e9f, 1.0f}};
+// The nearest sampled floor: the range within which this fraction of the candidates lie (outliers nearer do not
+// count), from a histogram of kRangeBin bins.
+constexpr double kNearFraction = 0.02;
+constexpr float kRangeBin = 0.1f;
+// Declines: the support's RMS residual in units of t(d) (pure noise about 0.33, residuals spread evenly over
+// +-t(d): 0.58), and the largest standard deviation of a fitted term as a fraction of its bound.
+constexpr double kMaxSpread = 0.5;
+constexpr double kMaxStdOfBound = 0.5;
+// A fit that moves the floor by less than this fraction of t(d) wherever it is seen is below the noise: the frame
+// keeps the (corrected) prior, so that a well-known pose is not moved by noise and clutter (about 1 mm and 0.02 deg
+// on the lab scene), and nothing is learned from it. A roll term alone below it is left out of the fit (decide()).
+constexpr double kMinShift = 0.1;
+constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
+constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
+
+bool poseIsValid(const SensorPose& p, const Config& c)
+{
+  return std::isfinite(p.height) && p.height > 0.0 && p.height < c.ceiling_height && std::fabs(p.pitch) <= kHalfPi &&
+         std::fabs(p.roll) <= kHalfPi;
+}
+
+SensorPose plus(const SensorPose& p, const PoseCorrection& c)
+{
+  return {p.height + c.height, p.pitch + c.pitch, p.roll + c.roll};
+}
+
+PoseCorrection minus(const SensorPose& a, const SensorPose& b)
+{
+  return {a.height - b.height, a.pitch - b.pitch, a.roll - b.roll};
+}
+
+/** Solves the symmetric 3x3 system n x = g; false if n is singular. */
+bool solve3(const double n[6], const double g[3], double x[3])
+{
+  // n: xx, xy, xz, yy, yz, zz
+  const double a = n[0], b = n[1], c = n[2], d = n[3], e = n[4], f = n[5];
+  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
+  const double det = a * c00 + b * c01 + c * c02;
+  if (!(std::fabs(det) > 0.0) || !std::isfinite(det))
+    return false;
+  const double c11 = a * f - c * c, c12 = b * c - a * e, c22 = a * d - b * b;
+  x[0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) / det;
+  x[1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) / det;
+  x[2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) / det;
+  return true;
+}
+
+/** Diagonal of the inverse of the symmetric 3x3 n (+Inf where singular). */
+void inverseDiagonal(const double n[6], double out[3])
+{
+  const double a = n[0], b = n[1], c = n[2], d = n[3], e = n[4], f = n[5];
+  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
+  const double det = a * c00 + b * c01 + c * c02;
+  const double inf = std::numeric_limits<double>::infinity();
+  if (!(det > 0.0) || !std::isfinite(det))
+  {
+    out[0] = out[1] = out[2] = inf;
+    return;
+  }
+  out[0] = c00 / det;
+  out[1] = (a * f - c * c) / det;
+  out[2] = (a * d - b * b) / det;
+}
+
+template <typename T>
+float metresOf(T v, float scale)
+{
+  if constexpr (std::is_floating_point_v<T>)
+    return DepthTraits<T>::isNoReturn(DepthTraits<T>::map(v)) ? -1.0f : v;
+  else
+    return v < DepthTraits<T>::kMinValid ? -1.0f : static_cast<float>(v) * scale;
+}
+
+template <typename T>
+float thresholdOf(const ThresholdLut& lut, T v, float z)
+{
+  if constexpr (std::is_same_v<T, std::uint8_t>)
+    return lut.forValue(v);
+  else if constexpr (std::is_same_v<T, std::uint16_t>)
+    return lut.forMillimetres(v);
+  else
+    return lut.forDepth(z);
+}
+}  // namespace
+
+std::string toString(FloorFitStatus s)
+{
+  switch (s)
+  {
+    case FloorFitStatus::kOff:
+      return "off";
+    case FloorFitStatus::kAccepted:
+      return "accepted";
+    case FloorFitStatus::kTooFewPixels:
+      return "too few pixels";
+    case FloorFitStatus::kSpreadTooLarge:
+      return "spread too large";
+    case FloorFitStatus::kOutOfBounds:
+      return "out of bounds";
+    case FloorFitStatus::kIllConditioned:
+      return "ill-conditioned";
+  }
+  return "unknown";
+}
+
+SensorPose poseFromFloorPlane(const SensorPose& prior, double a, double b, double c)
+{
+  // The plane's upward unit normal in the level frame, then in the optical frame (R^T n).
+  const double norm = std::sqrt(1.0 + b * b + c * c);
+  const double n_level[3] = {-b / norm, -c / norm, 1.0 / norm};
+  const std::array<double, 9> m = levelFromOptical(prior.pitch, prior.roll);
+  double n_opt[3];
+  for (int j = 0; j < 3; ++j)
+    n_opt[j] = m[j] * n_level[0] + m[3 + j] * n_level[1] + m[6 + j] * n_level[2];
+  SensorPose out{-a / norm, 0.0, 0.0};  // the sensor's distance from the plane
+  pitchRollFromUp(n_opt, out.pitch, out.roll);
+  return out;
+}
+
+/** The fitted floor z = (a - h) + b x + c y in the level frame of the corrected prior, and how well it fits. */
+struct FloorFit::Plane
+{
+  double a = 0.0, b = 0.0, c = 0.0;  // a: height of the floor above the prior's
+  double std_a = 0.0, std_b = 0.0, std_c = 0.0;
+  int support = 0;
+  double spread = 0.0;
+  double shift = 0.0;       // the largest move of the floor over the support, in units of t(d)
+  double roll_shift = 0.0;  // the same of the roll term (c y) alone
+};
+
+template <typename T>
+void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg, const ThresholdLut& lut,
+                      const SensorPose& prior)
+{
+  // Every kRowStep-th row, each at columns col_step apart from an offset that moves on by the golden ratio from
+  // row to row: all rows take part (without roll the floor has one depth per row, so the rows are the independent
+  // samples of an integer encoding's rounding) and the columns are covered evenly.
+  const int rows = (cam.height + kRowStep - 1) / kRowStep;
+  col_step_ = std::max(1, static_cast<int>(rows * static_cast<double>(cam.width) / kSamples));
+  const std::size_t capacity = static_cast<std::size_t>(rows) * (cam.width / col_step_ + 1) + kLanes;
+  for (auto* v : {&x_, &y_, &e_, &band_, &inv_sigma_, &range2_})
+    v->resize(capacity);  // once per camera: never reallocates after the first frame
+  col_x_.resize(cam.width);
+  col_y_.resize(cam.width);
+  col_z_.resize(cam.width);
+  // The ray of pixel (u, r) in the level frame is a column term (xn times the rotation's first column) plus a row
+  // term (yn times the second, plus the third).
+  const std::array<double, 9> m = levelFromOptical(prior.pitch, prior.roll);
+  for (int u = 0; u < cam.width; ++u)
+  {
+    const double xn = (u - cam.cx) / cam.fx;
+    col_x_[u] = static_cast<float>(m[0] * xn);
+    col_y_[u] = static_cast<float>(m[3] * xn);
+    col_z_[u] = static_cast<float>(m[6] * xn);
+  }
+  const float scale = std::is_same_v<T, std::uint8_t> ? static_cast<float>(cfg.max_depth / 255.0)
+                                                      : (std::is_same_v<T, std::uint16_t> ? 0.001f : 1.0f);
+  const float dh = static_cast<float>(cfg.floor_max_height_error), dp = static_cast<float>(cfg.floor_max_pitch_error),
+              dr = static_cast<float>(cfg.floor_max_roll_error), h = static_cast<float>(prior.height);
+  int n = 0;
+  for (int k = 0; k < rows; ++k)
+  {
+    const int r = k * kRowStep;
+    const double yn = (r - cam.cy) / cam.fy;
+    const float rx = static_cast<float>(m[1] * yn + m[2]), ry = static_cast<float>(m[4] * yn + m[5]),
+                rz = static_cast<float>(m[7] * yn + m[8]);
+    const T* row = depth.ptr<T>(r);
+    for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
+    {
+      const T v = row[u];
+      const float z = metresOf(v, scale), rise = col_z_[u] + rz;
+      if (!(z > 0.0f && z <= kMaxFitDepth && rise < 0.0f))
+        continue;  // unknown, too far, or a ray that never meets the floor
+      const float x = z * (col_x_[u] + rx), y = z * (col_y_[u] + ry), e = h + z * rise;
+      const float band = -rise * thresholdOf(lut, v, z);
+      if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
+        continue;
+      x_[n] = x;
+      y_[n] = y;
+      e_[n] = e;
+      band_[n] = band;
+      inv_sigma_[n] = kBandSigmas / band;
+      range2_[n] = x * x + y * y;
+      ++n;
+    }
+  }
+  count_ = n;
+  for (int i = n; i < n + kLanes; ++i)  // weightless padding up to whole vectors
+    x_[i] = y_[i] = e_[i] = band_[i] = inv_sigma_[i] = range2_[i] = 0.0f;
+}
+
+std::vector<FloorFit::Point> FloorFit::points() const
+{
+  std::vector<Point> out;
+  for (int i = 0; i < count_; ++i)
+    out.push_back({x_[i], y_[i], e_[i], band_[i]});
+  return out;
+}
+
+namespace
+{
+/**
+ * The weighted normal equations of the plane e = a + b x + c y over points [0, n) (n a multiple of kLanes):
+ * Tukey's biweight of each residual at scale window / inv_sigma, weight inv_sigma^2 on top; points farther than
+ * sqrt(radius2) do not count. Sums per lane in
+ * float (independent accumulators, so the lanes vectorise without reassociation), then in double.
+ * @param out xx, xy, xz, yy, yz, zz of the matrix, then the right-hand side (3)
+ */
+KP_CLONES void normalEquations(const float* __restrict x, const float* __restrict y, const float* __restrict e,
+                               const float* __restrict inv_sigma, const float* __restrict range2, int n, float a,
+                               float b, float c, float inv_window, float radius2, double out[9])
+{
+  float acc[9][kLanes] = {};
+  for (int i = 0; i < n; i += kLanes)
+    for (int j = 0; j < kLanes; ++j)
+    {
+      const float px = x[i + j], py = y[i + j], pe = e[i + j], is = range2[i + j] <= radius2 ? inv_sigma[i + j] : 0.0f;
+      const float u = (pe - (a + b * px + c * py)) * is * inv_window;
+      const float v = std::max(0.0f, 1.0f - u * u);
+      const float w = v * v * is * is;
+      acc[0][j] += w;
+      acc[1][j] += w * px;
+      acc[2][j] += w * py;
+      acc[3][j] += w * px * px;
+      acc[4][j] += w * px * py;
+      acc[5][j] += w * py * py;
+      acc[6][j] += w * pe;
+      acc[7][j] += w * pe * px;
+      acc[8][j] += w * pe * py;
+    }
+  for (int k = 0; k < 9; ++k)
+  {
+    double s = 0.0;
+    for (int j = 0; j < kLanes; ++j)
+      s += acc[k][j];
+    out[k] = s;
+  }
+}
+}  // namespace
+
+float FloorFit::nearestFloor() const
+{
+  std::array<int, static_cast<int>(kMaxFitDepth / kRangeBin) + 1> hist{};
+  for (int i = 0; i < count_; ++i)
+    ++hist[std::min(static_cast<int>(hist.size()) - 1, static_cast<int>(std::sqrt(range2_[i]) / kRangeBin))];
+  const int enough = static_cast<int>(kNearFraction * count_);
+  int seen = 0;
+  for (std::size_t k = 0; k < hist.size(); ++k)
+    if ((seen += hist[k]) > enough)
+      return (k + 1) * kRangeBin;
+  return kMaxFitDepth;
+}
+
+FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
+{
+  // Prior: each term ~ N(0, bound^2), so that a direction the pixels do not fix (a narrow strip of floor) stays at
+  // the prior instead of following the noise. The pixels' weights are 1 / sigma^2: the prior counts for little
+  // wherever there is floor to see.
+  const double prior_w[3] = {1.0 / (cfg.floor_max_height_error * cfg.floor_max_height_error),
+                             1.0 / (cfg.floor_max_pitch_error * cfg.floor_max_pitch_error),
+                             1.0 / (cfg.floor_max_roll_error * cfg.floor_max_roll_error)};
+  const int n = (count_ + kLanes - 1) / kLanes * kLanes;
+  Plane p;
+  double sums[9] = {};
+  const float near = nearestFloor();
+  for (const Stage& st : kStages)
+  {
+    const float radius = near + st.radius;
+    normalEquations(x_.data(), y_.data(), e_.data(), inv_sigma_.data(), range2_.data(), n, static_cast<float>(p.a),
+                    static_cast<float>(p.b), static_cast<float>(p.c), 1.0f / (kTukey * st.window), radius * radius,
+                    sums);
+    const double reg[6] = {sums[0] + prior_w[0], sums[1], sums[2], sums[3] + prior_w[1], sums[4], sums[5] + prior_w[2]};
+    double sol[3];
+    if (!solve3(reg, sums + 6, sol))
+      break;
+    p.a = sol[0];
+    p.b = sol[1];
+    p.c = sol[2];
+  }
+  // Support and spread at the final plane; the terms' standard deviations from the pixels alone (the last
+  // iteration's matrix), scaled by the spread actually seen (sigma = band / kBandSigmas is the model's).
+  double ss = 0.0;
+  for (int i = 0; i < count_; ++i)
+  {
+    const double r = (e_[i] - (p.a + p.b * x_[i] + p.c * y_[i])) / band_[i];
+    if (std::fabs(r) <= 1.0)
+    {
+      ++p.support;
+      ss += r * r;
+      p.shift = std::max(p.shift, std::fabs(p.a + p.b * x_[i] + p.c * y_[i]) / band_[i]);
+      p.roll_shift = std::max(p.roll_shift, std::fabs(p.c * y_[i]) / band_[i]);
+    }
+  }
+  p.spread = p.support ? std::sqrt(ss / p.support) : 0.0;
+  double var[3];
+  inverseDiagonal(sums, var);
+  const double k = std::max(1.0, kBandSigmas * p.spread);
+  p.std_a = k * std::sqrt(var[0]);
+  p.std_b = k * std::sqrt(var[1]);
+  p.std_c = k * std::sqrt(var[2]);
+  return p;
+}
+
+void FloorFit::decide(const Plane& p, const Config& cfg, const SensorPose& prior, FloorFitResult& out) const
+{
+  const SensorPose corrected = plus(prior, learned_);
+  // A roll term below the noise is left out, as a whole fit below it is (kMinShift): the floor cannot tell it
+  // from no roll correction, and a roll of exactly zero keeps the frame on the roll-free per-row paths.
+  const double c = p.roll_shift < kMinShift ? 0.0 : p.c;
+  const SensorPose fitted = poseFromFloorPlane(corrected, p.a - corrected.height, p.b, c);
+  out.fit = minus(fitted, prior);
+  out.support = p.support;
+  out.shift = p.shift;
+  out.pixels = p.support * kRowStep * col_step_;
+  out.spread = p.spread;
+  if (out.pixels < cfg.floor_min_pixels)
+    out.status = FloorFitStatus::kTooFewPixels;
+  else if (p.spread > kMaxSpread)
+    out.status = FloorFitStatus::kSpreadTooLarge;
+  else if (!(p.std_a <= kMaxStdOfBound * cfg.floor_max_height_error &&
+             p.std_b <= kMaxStdOfBound * cfg.floor_max_pitch_error &&
+             p.std_c <= kMaxStdOfBound * cfg.floor_max_roll_error))
+    out.status = FloorFitStatus::kIllConditioned;
+  else if (!(std::fabs(out.fit.height) <= cfg.floor_max_height_error &&
+             std::fabs(out.fit.pitch) <= cfg.floor_max_pitch_error &&
+             std::fabs(out.fit.roll) <= cfg.floor_max_roll_error) ||
+           !poseIsValid(fitted, cfg))
+    out.status = FloorFitStatus::kOutOfBounds;
+  else
+    out.status = FloorFitStatus::kAccepted;
+}
+
+void FloorFit::learn(const FloorFitResult& out, const Config& cfg, double stamp)
+{
+  double dt = kNominalFramePeriod;
+  if (std::isfinite(stamp))
+  {
+    dt = has_stamp_ ? std::max(0.0, stamp - last_stamp_) : kNominalFramePeriod;
+    last_stamp_ = stamp;
+    has_stamp_ = true;
+  }
+  if (!out.accepted() || out.shift < kMinShift || !(cfg.floor_learn_time > 0.0))
+    return;
+  // A first-order low-pass of the accepted corrections: what persists over floor_learn_time stays.
+  const double alpha = 1.0 - std::exp(-dt / cfg.floor_learn_time);
+  learned_.height += alpha * (out.fit.height - learned_.height);
+  learned_.pitch += alpha * (out.fit.pitch - learned_.pitch);
+  learned_.roll += alpha * (out.fit.roll - learned_.roll);
+}
+
+SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
+                            const SensorPose& prior, double stamp, FloorFitResult& out)
+{
+  out = FloorFitResult{};
+  if (!config.refine_floor)
+    return prior;
+  SensorPose corrected = plus(prior, learned_);
+  if (!poseIsValid(corrected, config))
+    corrected = prior;
+  switch (depth.type())
+  {
+    case CV_8UC1:
+      sample<std::uint8_t>(depth, camera, config, lut, corrected);
+      break;
+    case CV_16UC1:
+      sample<std::uint16_t>(depth, camera, config, lut, corrected);
+      break;
+    default:
+      sample<float>(depth, camera, config, lut, corrected);
+      break;
+  }
+  out.row_step = kRowStep;
+  out.col_step = col_step_;
+  out.candidates = count_;
+  decide(fitPlane(config), config, prior, out);
+  learn(out, config, stamp);
+  out.learned = learned_;
+  const SensorPose pose = out.accepted() && out.shift >= kMinShift ? plus(prior, out.fit) : corrected;
+  out.applied = minus(pose, prior);
+  return pose;
+}
+
+FloorFit::State FloorFit::state() const
+{
+  return {learned_, has_stamp_ ? last_stamp_ : std::numeric_limits<double>::quiet_NaN()};
+}
+
+void FloorFit::restore(const State& s)
+{
+  learned_ = s.learned;
+  has_stamp_ = std::isfinite(s.last_stamp);
+  last_stamp_ = has_stamp_ ? s.last_stamp : 0.0;
+}
+
+void FloorFit::reset()
+{
+  learned_ = PoseCorrection{};
+  has_stamp_ = false;
+  last_stamp_ = 0.0;
+}
+
+}  // namespace kinect_pipeline

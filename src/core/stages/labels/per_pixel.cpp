@@ -1,0 +1,128 @@
+// The reference labeller: the plane removal rule (stages/labels/rule.h) pixel by pixel, and the rescue (stages/labels/per_pixel.h).
+// Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
+#include "stages/labels/per_pixel.h"
+
+#include <cstring>
+
+#include "base/simd.h"
+
+namespace kinect_pipeline
+{
+namespace detail
+{
+// Branch-free, with restrict pointers, so that the compiler vectorises it.
+template <typename T, bool kRescue>
+KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
+                                const float* __restrict col, float rise_row, PlaneRule rule, int w,
+                                std::uint8_t* __restrict lab, T* __restrict dst, std::uint8_t* __restrict cand)
+{
+  using Tr = DepthTraits<T>;
+  const T removed = Tr::removed();
+  int n_kept = 0, n_invalid = 0, n_floor = 0, n_ceiling = 0, n_cand = 0;
+  for (int u = 0; u < w; ++u)
+  {
+    const T v = src[u];
+    float d;
+    bool keep, below;
+    const std::uint8_t l = rule.label(v, t[u], col[u] + rise_row, d, keep, below);
+    lab[u] = l;
+    dst[u] = keep ? v : removed;
+    if constexpr (kRescue)
+    {
+      // From the unmapped raw value (unknown ones are 0 or below: moved < 0; or no return): a select before the
+      // conversion would stop the vectoriser.
+      const T raw = in[u];
+      const bool flag = (keep | below) & !Tr::isNoReturn(raw) & (rule.moved(raw, v) > PlaneRule::moveBand(t[u]));
+      cand[u] = flag;
+      n_cand += flag;
+    }
+    n_kept += keep;
+    n_invalid += l == kInvalid;
+    n_floor += l == kFloor;
+    n_ceiling += l == kAboveCeiling;
+  }
+  return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
+}
+
+namespace
+{
+// The rescue of pixel u: @return true if it relabelled the pixel.
+template <typename T>
+inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lut, const float* col, float rise_row,
+                        const PlaneRule& rule, std::uint8_t* lab, T* dst, RowCounts& c)
+{
+  using Tr = DepthTraits<T>;
+  if (lab[u] != kKept && lab[u] != kBelowFloor)
+    return false;
+  const T raw = Tr::map(in[u]);
+  if (raw == src[u] || Tr::isNoReturn(raw))
+    return false;
+  const std::uint8_t label = rule.rescued(raw, src[u], thresholdOf(lut, raw, rule.scale), col[u] + rise_row);
+  if (label == kKept)
+    return false;
+  if (lab[u] == kKept)
+    --c.kept;
+  if (label == kFloor)
+    ++c.floor;
+  else
+    ++c.ceiling;
+  lab[u] = label;
+  dst[u] = Tr::removed();
+  return true;
+}
+
+template <typename T>
+KP_CLONES void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
+{
+  // A gather, which SSE cannot vectorise: kept out of classifyRow.
+  for (int u = 0; u < w; ++u)
+    t[u] = thresholdOf(lut, src[u], scale);
+}
+}  // namespace
+
+// 8 flags (0/1 bytes) at a time, then their set bytes.
+template <typename T>
+void rescueRow(const RuleTerms& f, int r, const std::uint8_t* cand, const T* in, const T* src, int w,
+               std::uint8_t* lab, T* dst, RowCounts& c)
+{
+  const float rise_row = f.row[r];
+  const int full = w & ~7;
+  for (int u0 = 0; u0 < full; u0 += 8)
+  {
+    std::uint64_t x;
+    std::memcpy(&x, cand + u0, 8);
+    for (; x != 0; x &= x - 1)
+      rescuePixel<T>(u0 + __builtin_ctzll(x) / 8, in, src, *f.lut, f.col, rise_row, f.rule, lab, dst, c);
+  }
+  for (int u = full; u < w; ++u)
+    if (cand[u])
+      rescuePixel<T>(u, in, src, *f.lut, f.col, rise_row, f.rule, lab, dst, c);
+}
+
+template <typename T>
+RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
+                          float* t, std::uint8_t* cand)
+{
+  thresholdRow<T>(src, *f.lut, f.rule.scale, w, t);
+  RowCounts c = in ? classifyRow<T, true>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
+                   : classifyRow<T, false>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+  if (c.candidates > 0)
+    rescueRow<T>(f, r, cand, in, src, w, lab, dst, c);
+  return c;
+}
+
+#define KP_INSTANTIATE(T)                                                                                            \
+  template RowCounts classifyRow<T, true>(const T*, const T*, const float*, const float*, float, PlaneRule, int,   \
+                                          std::uint8_t*, T*, std::uint8_t*);                                       \
+  template RowCounts classifyRow<T, false>(const T*, const T*, const float*, const float*, float, PlaneRule, int,  \
+                                           std::uint8_t*, T*, std::uint8_t*);                                      \
+  template void rescueRow<T>(const RuleTerms&, int, const std::uint8_t*, const T*, const T*, int, std::uint8_t*, T*, \
+                             RowCounts&);                                                                           \
+  template RowCounts labelRowByPixel<T>(const RuleTerms&, int, const T*, const T*, int, std::uint8_t*, T*, float*,  \
+                                        std::uint8_t*);
+KP_INSTANTIATE(std::uint8_t)
+KP_INSTANTIATE(std::uint16_t)
+KP_INSTANTIATE(float)
+#undef KP_INSTANTIATE
+}  // namespace detail
+}  // namespace kinect_pipeline

@@ -1,0 +1,554 @@
+// ScanProjector (stages/scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border crossings.
+// Design notes: docs/core_design.md ("The scan").
+#include "kinect_pipeline/stages/scan.h"
+
+#include "base/simd.h"
+
+#include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/pose.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace kinect_pipeline
+{
+namespace
+{
+// atan2 within kCoarseAtanError rad (max 6.1e-4 on [0, 1] for the polynomial: a least-max-error fit of degree 5),
+// for spanPlan's bounds: three terms fewer on the row's chain of dependent operations than fastAtan2.
+constexpr double kCoarseAtanError = 1e-3;
+inline float coarseAtan2(float y, float x)
+{
+  return atan2ByOctant(y, x, [](float a) {
+    const float s = a * a;
+    float r = 0.07934285f;
+    r = r * s - 0.28869395f;
+    r = r * s + 0.99535861f;
+    return r * a;
+  });
+}
+}  // namespace
+
+void ScanProjector::configure(const Camera& camera, const Config& config)
+{
+  projection_ = config.projection;
+  width_ = camera.width;
+  height_ = camera.height;
+  xn_.resize(width_);
+  xe_.resize(width_ + 1);
+  yn_.resize(height_);
+  xn2_.resize(width_);
+  for (int u = 0; u < width_; ++u)
+  {
+    xn_[u] = static_cast<float>((u - camera.cx) / camera.fx);
+    xn2_[u] = xn_[u] * xn_[u];
+  }
+  for (int e = 0; e <= width_; ++e)
+    xe_[e] = static_cast<float>((e - 0.5 - camera.cx) / camera.fx);
+  for (int r = 0; r < height_; ++r)
+    yn_[r] = static_cast<float>((r - camera.cy) / camera.fy);
+
+  // Beam angle of each column edge in the column model: -theta_x (counter-clockwise from forward).
+  const bool thesis_columns = projection_ == Projection::kColumn && config.geometry == Geometry::kThesis;
+  const double hfov = camera.hfov();
+  std::vector<double> edge_angle(width_ + 1);
+  for (int e = 0; e <= width_; ++e)
+    edge_angle[e] = thesis_columns ? -((e - 0.5) - 0.5 * width_) / width_ * hfov
+                                   : -std::atan((e - 0.5 - camera.cx) / camera.fx);
+
+  double lo = edge_angle[width_], hi = edge_angle[0];
+  if (config.scan_fov > 0.0)
+  {
+    lo = -0.5 * config.scan_fov;
+    hi = 0.5 * config.scan_fov;
+  }
+  beams_ = config.scan_beams > 0 ? config.scan_beams : width_;
+  const double inc = (hi - lo) / beams_;
+  inc_ = static_cast<float>(inc);
+  lo_ = static_cast<float>(lo);
+  angle_min_ = static_cast<float>(lo + 0.5 * inc);
+  angle_max_ = static_cast<float>(hi - 0.5 * inc);
+
+  col_edge_bins_.resize(width_ + 1);
+  col_factor_.resize(width_);
+  for (int e = 0; e <= width_; ++e)
+    col_edge_bins_[e] = static_cast<float>((edge_angle[e] - lo) / inc);
+  col_centre_bins_.resize(width_);
+  for (int u = 0; u < width_; ++u)
+  {
+    const double theta_x = thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan((u - camera.cx) / camera.fx);
+    col_factor_[u] = static_cast<float>(1.0 / std::cos(theta_x));
+    col_centre_bins_[u] = static_cast<float>((-theta_x - lo) / inc);
+  }
+  bx_.assign(height_, 1.0f);
+  by_.assign(height_, 0.0f);
+  cx_ = static_cast<float>(camera.cx);
+  fx_ = static_cast<float>(camera.fx);
+  border_s_.resize(beams_ + 1);
+  border_c_.resize(beams_ + 1);
+  border_den_.resize(beams_ + 1);
+  border_p_.resize(beams_ + 1);
+  border_q_.resize(beams_ + 1);
+  for (int k = 0; k <= beams_; ++k)
+  {
+    border_s_[k] = static_cast<float>(std::sin(lo + k * inc));
+    border_c_[k] = static_cast<float>(std::cos(lo + k * inc));
+  }
+  inv_fx_ = static_cast<float>(1.0 / camera.fx);
+  coarse_margin_ = 1 + static_cast<int>(std::ceil(kCoarseAtanError / inc));
+  setPose(0.0, 0.0);
+}
+
+void ScanProjector::setPose(double pitch, double roll)
+{
+  if (projection_ == Projection::kColumn)
+    return;
+  // The ray (xn, yn, 1) in the level frame: x = ax xn + bx[r], y = ay xn + by[r].
+  const std::array<double, 9> m = levelFromOptical(pitch, roll);
+  ax_ = static_cast<float>(m[0]);
+  ay_ = static_cast<float>(m[3]);
+  for (int r = 0; r < height_; ++r)
+  {
+    bx_[r] = static_cast<float>(m[2] + m[1] * yn_[r]);
+    by_[r] = static_cast<float>(m[4] * yn_[r]);
+  }
+  // Each border's crossing terms (see crossing()): the denominator depends on the pose, not on the row.
+  const double ax = ax_, ay = ay_, fx = fx_;
+  for (int k = 0; k <= beams_; ++k)
+  {
+    const double s = border_s_[k], c = border_c_[k];
+    const double den = ay * c - ax * s;
+    border_den_[k] = static_cast<float>(den);
+    border_p_[k] = static_cast<float>(fx * s / den);
+    border_q_[k] = static_cast<float>(fx * c / den);
+  }
+}
+
+const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
+{
+  if (projection_ == Projection::kColumn)
+    return col_edge_bins_.data();
+  edgeBins(r, 0, width_, buffer);
+  return buffer;
+}
+
+namespace
+{
+// Restrict parameters of a small function: the loops vectorise without a runtime alias check.
+KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
+                 float inv, float* __restrict out)
+{
+  for (int e = e0; e <= e1; ++e)
+    out[e] = rayBin(xe[e], ax, ay, bx, by, lo, inv);
+}
+
+// Range per metre of depth of the ray (x, y) of the horizontal projection, times the depth z.
+__attribute__((always_inline)) inline float rayRange(float x, float y, float z) { return z * std::sqrt(x * x + y * y); }
+
+// The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
+KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
+                        float inv, float beams, const float* __restrict z, float* __restrict fb,
+                        std::int32_t* __restrict key, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    const float f = rayBin(xn[u], ax, ay, bx, by, lo, inv);
+    fb[u] = f;
+    key[u] = binKey(f, beams);
+    range[u] = rayRange(x, y, z[u]);
+  }
+}
+
+KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                         const float* __restrict z, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
+}
+
+// The squared ranges of a cleaned row: (depth of each kept pixel, +Inf for removed ones)^2 (X^2 + Y^2). No square
+// root per pixel: the nearest squared range of a bin is the square of its nearest range, rooted once per beam.
+template <typename T>
+KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                             const T* __restrict row, float scale, float* __restrict range)
+{
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const float z = keptMetres(row[u], scale);
+      const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+      range[u] = (z * z) * (x * x + y * y);
+    }
+  });
+}
+
+// keptRangeLoop of a row without roll (ax = 0, ay = -1, by = 0): X = 0 xn + bx = bx and Y = -xn exactly, so
+// X^2 + Y^2 = bx^2 + xn^2 with xn^2 from a table: the same bits with two operations fewer per pixel.
+template <typename T>
+KP_CLONES void keptRangeLoopLevel(const float* __restrict xn2, int u0, int u1, float bx, const T* __restrict row,
+                                  float scale, float* __restrict range)
+{
+  const float bx2 = bx * bx;
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const float z = keptMetres(row[u], scale);
+      range[u] = (z * z) * (bx2 + xn2[u]);
+    }
+  });
+}
+
+// The column at which the bearing of border k crosses the row (bx, by): cx + fx (bx s - by c) / (ay c - ax s)
+// with the pose's terms P = fx s / den, Q = fx c / den (ScanProjector::setPose). The one formula of a crossing;
+// without roll (by = 0) the product by q is a zero, and bx p - 0 is bx p: kRoll false leaves it out, same bits.
+template <bool kRoll>
+__attribute__((always_inline)) inline float crossing(float p, float q, float bx, float by, float cx)
+{
+  if constexpr (kRoll)
+    return cx + (bx * p - by * q);
+  else
+    return cx + bx * p;
+}
+
+// A column position clamped to [lo, hi] (NaN to lo).
+__attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
+{
+  g = g > lo ? g : lo;
+  return g < hi ? g : hi;
+}
+
+// Pixels of each bin j < n from the columns where its borders j, j + 1 cross the row (crossing(), border terms
+// p[j], q[j]), clipped to a..b. Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A
+// bin with no centre (narrower than a pixel) gets the centre nearest to its middle, taken halfway between the
+// border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
+template <bool kUp, bool kRoll>
+KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
+                         int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
+{
+  const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
+  overlappedBlocks<32>(0, n, [&](int s, int m) {
+    for (int j = s; j < s + m; ++j)
+    {
+      const float g0 = clampIn(crossing<kRoll>(p[j], q[j], bx, by, cx), gl, gh);
+      const float g1 = clampIn(crossing<kRoll>(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
+      // The middle's centre, floor(x) for x = 0.5 (g0 + g1) + 0.5, is needed for empty bins only: both crossings
+      // then lie within one pixel spacing (up: (C - 1, C], C = ceil(g0); fall: [F, F + 1), F = floor(g0)), so
+      // floor(x) is C - 1 or C (F or F + 1) and one compare with C (F + 1) finds it, without rounding x.
+      const float x = 0.5f * (g0 + g1) + 0.5f;
+      std::int32_t l, h, mid;
+      if constexpr (kUp)
+      {
+        const float c0 = std::ceil(g0);
+        l = static_cast<std::int32_t>(c0);
+        h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+        mid = l - 1 + (x >= c0);
+      }
+      else
+      {
+        const float f0 = std::floor(g0);
+        l = static_cast<std::int32_t>(std::floor(g1)) + 1;
+        h = static_cast<std::int32_t>(f0);
+        mid = h + (x >= f0 + 1.0f);
+      }
+      const bool empty = l > h;
+      l = empty ? mid : l;
+      h = empty ? mid : h;
+      lo[j] = l < a ? a : l;
+      hi[j] = h > b ? b : h;
+    }
+  });
+}
+
+// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored (a min that keeps the nearest so far).
+inline float nearestOf(const float* range, int l, int h)
+{
+  float v = std::numeric_limits<float>::infinity();
+  for (int u = l; u <= h; ++u)
+    v = range[u] < v ? range[u] : v;
+  return v;
+}
+
+#if defined(KP_AVX512_PATHS)
+#pragma GCC diagnostic push
+#if !defined(__clang__)
+// GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+// 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
+// two-register permute per pixel rank fetch them. (Fused with pixelLoop, the columns of a chunk come at the end of
+// a long chain of dependent operations and each branch on them waits for it: slower, by perf.)
+// With kCount, counts[j] also gains the number of finite ranges among bin j's pixels (MinCountInto's count).
+template <bool kCount>
+KP_TARGET_AVX512 inline __m512 rankMin(__m512 v, __mmask16 m, __m512 w0, __m512i idx, __m512 w1, __m512i& finite)
+{
+  const __m512 x = _mm512_permutex2var_ps(w0, idx, w1);
+  if constexpr (kCount)
+  {
+    const __mmask16 f = _mm512_mask_cmp_ps_mask(m, x, _mm512_set1_ps(std::numeric_limits<float>::infinity()),
+                                                _CMP_LT_OQ);  // NaN and +Inf: no
+    finite = _mm512_mask_add_epi32(finite, f, finite, _mm512_set1_epi32(1));
+  }
+  // min(x, v) takes v where x is NaN: NaN ranges are ignored, as nearestOf ignores them.
+  return _mm512_mask_min_ps(v, m, x, v);
+}
+
+template <bool kCount>
+KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n,
+                                 float* bins, std::int32_t* counts)
+{
+  const __m512i one = _mm512_set1_epi32(1);
+  const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
+  for (int j = 0; j < n; j += 16)
+  {
+    const __mmask16 live = n - j >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (n - j)) - 1u);
+    // Whole loads and stores where the chunk is full: a masked load waits for the stores before it (pixelLoop's,
+    // the previous row's pull) to reach the cache instead of taking their data (by perf: a third of the pull).
+    const bool full = live == 0xFFFF;
+    const __m512i l = full ? _mm512_loadu_si512(lo + j) : _mm512_maskz_loadu_epi32(live, lo + j);
+    const __m512i h = full ? _mm512_loadu_si512(hi + j) : _mm512_maskz_loadu_epi32(live, hi + j);
+    const __m512i cnt = _mm512_maskz_sub_epi32(live, _mm512_add_epi32(h, one), l);  // pixels per bin, 0 for none
+    const __mmask16 some = _mm512_cmpgt_epi32_mask(cnt, _mm512_setzero_si512());
+    if (some == 0)
+      continue;
+    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
+    const int last = std::min(15, n - j - 1);
+    const int base = std::min(lo[j], lo[j + last]);
+    const int top = std::max(hi[j], hi[j + last]);
+    const __mmask16 out = _mm512_mask_cmplt_epi32_mask(some, l, _mm512_set1_epi32(base)) |
+                          _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
+    if (top - base >= 32 || out != 0)
+    {
+      for (int i = j; i <= j + last; ++i)
+      {
+        const float v = nearestOf(range, lo[i], hi[i]);
+        bins[i] = v < bins[i] ? v : bins[i];
+        if constexpr (kCount)
+          for (int u = lo[i]; u <= hi[i]; ++u)
+            counts[i] += range[u] < std::numeric_limits<float>::infinity();
+      }
+      continue;
+    }
+    const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
+    __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
+    __m512i finite = _mm512_setzero_si512();
+    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
+    // always at its start.
+    __m512 v = rankMin<kCount>(inf, some, w0, idx, w1, finite);
+    idx = _mm512_add_epi32(idx, one);
+    v = rankMin<kCount>(v, _mm512_cmpgt_epi32_mask(cnt, one), w0, idx, w1, finite);
+    for (int c = 2;; ++c)
+    {
+      const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
+      if (m == 0)
+        break;
+      idx = _mm512_add_epi32(idx, one);
+      v = rankMin<kCount>(v, m, w0, idx, w1, finite);
+    }
+    if (full)
+    {
+      _mm512_storeu_ps(bins + j, _mm512_min_ps(v, _mm512_loadu_ps(bins + j)));
+      if constexpr (kCount)
+        _mm512_storeu_si512(counts + j, _mm512_add_epi32(finite, _mm512_loadu_si512(counts + j)));
+    }
+    else
+    {
+      const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
+      _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
+      if constexpr (kCount)
+        _mm512_mask_storeu_epi32(counts + j, live, _mm512_add_epi32(finite, _mm512_maskz_loadu_epi32(live, counts + j)));
+    }
+  }
+}
+#pragma GCC diagnostic pop
+#endif
+
+// The column projection's: each column's bin position and range factor.
+KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
+                          const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
+                          float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    fb[u] = cb[u];
+    key[u] = binKey(cb[u], beams);
+    range[u] = z[u] * k[u];
+  }
+}
+
+}  // namespace
+
+void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
+{
+  edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
+}
+
+void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key,
+                             float* range) const
+{
+  const float beams = static_cast<float>(beams_);
+  if (projection_ == Projection::kColumn)
+    columnLoop(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
+  else
+    spanLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth, fb, key, range);
+}
+
+void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float* range) const
+{
+  rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
+}
+
+template <typename T>
+void ScanProjector::spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
+{
+  if (ax_ == 0.0f && ay_ == -1.0f && by_[r] == 0.0f)
+    keptRangeLoopLevel<T>(xn2_.data(), u0, u1, bx_[r], row, scale, range);
+  else
+    keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
+}
+template void ScanProjector::spanKeptSquaredRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
+template void ScanProjector::spanKeptSquaredRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
+template void ScanProjector::spanKeptSquaredRanges<float>(int, int, int, const float*, float, float*) const;
+
+int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
+{
+  if (projection_ != Projection::kHorizontal)
+    return -1;
+  const float ax = ax_, ay = ay_, bx = bx_[r], by = by_[r];
+  // The row's line (X, Y) = (ax, ay) xn + (bx, by) must pass clear of the point under the sensor: by its distance
+  // from it (at least |bx ay - by ax|, as |(ax, ay)| <= 1) in pixels, D, a bin without a centre takes the centre
+  // nearest to the middle of its borders' crossings in columns instead of in bearings, at most 1 / (4 D^2 inc)
+  // bins off (the bearing's curvature over a pixel): a twentieth of a bin at most (D >= 46 pixels for 512 beams
+  // over 70.6 degrees: a Kinect v2's rows are all farther up to a pitch of 0.94 rad, 100 pixels or more at 0.8).
+  const float cross = std::fabs(bx * ay - by * ax), far = cross * fx_;
+  if (!(cross > 1e-4f) || !(far * far * inc_ >= 5.0f))
+    return -1;
+  // A span whose bearings pass the direction straight behind the sensor (Y = 0 with X < 0: only rows that look
+  // behind it, looking steeply down) runs from one end of the bin positions to the other: its bins are not the one
+  // run k0..k1 between its ends' bins.
+  const float x0 = (static_cast<float>(a - 1) - cx_) * inv_fx_, x1 = (static_cast<float>(b + 1) - cx_) * inv_fx_;
+  if (ay != 0.0f)
+  {
+    const float behind = -by / ay;  // xn where Y = 0
+    if (behind >= x0 && behind <= x1 && ax * behind + bx < 0.0f)
+      return -1;
+  }
+  // Bins of the centres either side of the span (the pixels a - 1 and b + 1, seen as +Inf), found with a coarse
+  // atan, and coarse_margin_ more each side: one for the rounding at a border, the rest for the atan's error.
+  // More bins than needed only add bins without a pixel of the span.
+  const float inv = 1.0f / inc_, beams = static_cast<float>(beams_);
+  float f[2];
+  for (int i = 0; i < 2; ++i)
+  {
+    const float xn = i == 0 ? x0 : x1;
+    f[i] = (coarseAtan2(ay * xn + by, ax * xn + bx) - lo_) * inv;
+  }
+  const std::int32_t k0 = std::max(0, binKey(std::min(f[0], f[1]), beams) - coarse_margin_);
+  const std::int32_t k1 = std::min(beams_ - 1, binKey(std::max(f[0], f[1]), beams) + coarse_margin_);
+  if (k0 > k1)
+    return 0;
+  const int n = k1 - k0 + 1;
+  const float* p = border_p_.data() + k0;
+  const float* q = border_q_.data() + k0;
+  const float* den = border_den_.data() + k0;
+  const float* s = border_s_.data() + k0;
+  const float* c = border_c_.data() + k0;
+  // The crossings hold where each bearing crosses the line ahead (not its opposite) at a finite column: the
+  // denominator keeps its sign between the ends (it is a sinusoid of the bearing, with zeros half a turn apart)
+  // and the crossing lies in the bearing's direction.
+  float g[2];
+  for (int e = 0; e < 2; ++e)
+  {
+    const int i = e == 0 ? 0 : n;
+    g[e] = crossing<true>(p[i], q[i], bx, by, cx_);
+    const float xn = (g[e] - cx_) * inv_fx_;
+    if (!(std::fabs(den[i]) > 1e-6f) || !std::isfinite(g[e]) ||
+        !((ax * xn + bx) * c[i] + (ay * xn + by) * s[i] > 0.0f))
+      return -1;
+  }
+  if ((den[0] > 0.0f) != (den[n] > 0.0f))
+    return -1;
+  plan = SpanPlan{k0, n, g[1] > g[0], p, q, bx, by, cx_, a, b};
+  return n;
+}
+
+int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_t* hi, int& first) const
+{
+  SpanPlan plan;
+  const int n = spanPlan(r, a, b, plan);
+  if (n > 0)
+  {
+    planPixels(plan, lo, hi);
+    first = plan.first;
+  }
+  return n;
+}
+
+void ScanProjector::planPixels(const SpanPlan& s, std::int32_t* lo, std::int32_t* hi)
+{
+  const bool roll = s.by != 0.0f;
+  if (s.up)
+    (roll ? pixelLoop<true, true> : pixelLoop<true, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
+  else
+    (roll ? pixelLoop<false, true> : pixelLoop<false, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
+}
+
+bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+                         std::int32_t* counts)
+{
+#if defined(KP_AVX512_PATHS)
+  if (!vectorPaths())
+    return false;
+  if (counts)
+    pullMin512<true>(range, lo, hi, n, bins, counts);
+  else
+    pullMin512<false>(range, lo, hi, n, bins, nullptr);
+  return true;
+#else
+  (void)range;
+  (void)lo;
+  (void)hi;
+  (void)n;
+  (void)bins;
+  (void)counts;
+  return false;
+#endif
+}
+
+bool detail::setVectorPaths(bool on)
+{
+  const bool was = g_vector_paths;
+  g_vector_paths = on;
+  return was;
+}
+
+bool detail::vectorPathsAvailable() { return vectorPathsSupported(); }
+
+void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
+{
+  if (projection_ == Projection::kColumn)
+  {
+    lo = std::min({lo, col_edge_bins_.front(), col_edge_bins_.back()});
+    hi = std::max({hi, col_edge_bins_.front(), col_edge_bins_.back()});
+    return;
+  }
+  const float inv = 1.0f / inc_;
+  for (const float x : {xe_.front(), xe_.back()})
+  {
+    const float f = rayBin(x, ax_, ay_, bx_[r], by_[r], lo_, inv);
+    lo = std::min(lo, f);
+    hi = std::max(hi, f);
+  }
+}
+
+void ScanProjector::coverage(float& lo, float& hi) const
+{
+  lo = std::numeric_limits<float>::infinity();
+  hi = -lo;
+  // The column projection's edges do not depend on the row.
+  for (int r = 0; r < (projection_ == Projection::kColumn ? 1 : height_); ++r)
+    rowCoverage(r, lo, hi);
+}
+
+}  // namespace kinect_pipeline
