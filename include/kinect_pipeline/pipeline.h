@@ -55,27 +55,6 @@ struct FrameResult
 
 namespace detail
 {
-/**
- * The fast paths of the core that a frame can take their plain reference for instead: for tests and checks that
- * compare the two (each fast path gives the reference's bits, but for the border-crossing binning, whose ranges
- * may differ where a pixel's centre lies within float rounding of a bin's border). Docs: docs/core_design.md.
- */
-struct ReferencePaths
-{
-  bool labels = false;   ///< every row labelled pixel by pixel by the rule (no labelling by value thresholds)
-  bool binning = false;  ///< every row binned by its pixel centres' bearings (no binning from the bins' borders)
-  bool opening = false;  ///< cv::morphologyEx for every opening (no row kernels, no streamed 3x3 opening)
-  /** @return all three on: the reference path. */
-  static ReferencePaths all() { return {true, true, true}; }
-};
-/**
- * Sets which fast paths are replaced by their reference (default: none) for every Pipeline of the process; not to
- * be changed while frames are processed. @return the previous setting
- */
-ReferencePaths setReferencePaths(const ReferencePaths& paths);
-/** @return the current setting of setReferencePaths. */
-ReferencePaths referencePaths();
-
 struct FrameWork;
 }  // namespace detail
 
@@ -88,8 +67,11 @@ struct FrameWork;
 class Pipeline
 {
 public:
-  /** @throw std::invalid_argument if the camera or config is invalid. */
-  Pipeline(const Camera& camera, const Config& config);
+  /**
+   * @param paths the fast paths this pipeline's frames replace by their reference (default: none)
+   * @throw std::invalid_argument if the camera or config is invalid.
+   */
+  Pipeline(const Camera& camera, const Config& config, const ReferencePaths& paths = {});
   ~Pipeline();
   Pipeline(const Pipeline&) = delete;
   Pipeline& operator=(const Pipeline&) = delete;
@@ -100,6 +82,8 @@ public:
   void setCamera(const Camera& camera);
   const Config& config() const { return config_; }
   const Camera& camera() const { return camera_; }
+  /** @return the fast paths this pipeline replaces by their reference (as constructed). */
+  const ReferencePaths& referencePaths() const { return paths_; }
 
   /**
    * @brief Processes one frame.
@@ -142,6 +126,7 @@ private:
 
   Camera camera_;
   Config config_;
+  ReferencePaths paths_;
   PlaneModel planes_;
   FloorFit floor_fit_;
   ScanProjector projector_;

@@ -27,6 +27,23 @@ struct PoseCorrection
   double roll = 0.0;
 };
 
+/**
+ * Which of a Pipeline's fast paths its frames replace by their plain reference (Pipeline's constructor; default:
+ * none), for tests, checks and users that compare the two. Each fast path gives the reference's bits, but for the
+ * border-crossing binning, whose ranges may differ where a pixel's centre lies within float rounding of a bin's
+ * border. Per Pipeline: two pipelines of one process may take different paths. Docs: docs/core_design.md.
+ */
+struct ReferencePaths
+{
+  bool labels = false;    ///< every row labelled pixel by pixel by the rule (no labelling by value thresholds)
+  bool binning = false;   ///< every row binned by its pixel centres' bearings (no binning from the bins' borders)
+  bool opening = false;   ///< cv::morphologyEx for every opening (no row kernels, no streamed 3x3 opening)
+  bool portable = false;  ///< the portable loops instead of the hand-written AVX-512 ones (the same bits; changes
+                          ///< nothing where the CPU or the build has none, see detail::vectorPathsAvailable())
+  /** @return all four on: the reference path. */
+  static ReferencePaths all() { return {true, true, true, true}; }
+};
+
 /** Per-pixel labels of FrameResult::labels. */
 enum Label : std::uint8_t
 {

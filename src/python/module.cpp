@@ -145,7 +145,10 @@ struct PyResult
 
 struct PyPipeline
 {
-  PyPipeline(const Camera& c, const Config& cfg) : pipe(c, cfg) {}
+  PyPipeline(const Camera& c, const Config& cfg, bool reference_paths)
+      : pipe(c, cfg, reference_paths ? ReferencePaths::all() : ReferencePaths{})
+  {
+  }
   Pipeline pipe;
   FrameResult result;
   std::mutex mutex;  // process() releases the GIL: one frame at a time per instance
@@ -586,7 +589,9 @@ PYBIND11_MODULE(_core, m)
       .def("__repr__", &describeResult);
 
   py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
-      .def(py::init<const Camera&, const Config&>(), py::arg("camera"), py::arg("config"))
+      .def(py::init<const Camera&, const Config&, bool>(), py::arg("camera"), py::arg("config"),
+           py::arg("reference_paths") = false,
+           "reference_paths: every step on its plain reference path instead of the fast one (for checks)")
       .def(
           "process",
           [](PyPipeline& self, const py::object& depth, double base_pitch, double base_roll, const py::object& stamp) {

@@ -10,7 +10,7 @@
 
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/stages/opening_kernels.h"
-#include "kinect_pipeline/stages/scan.h"  // detail::setVectorPaths
+#include "kinect_pipeline/stages/scan.h"  // detail::vectorPathsAvailable
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -45,10 +45,8 @@ void checkRect(int type, int ksize, int rows, int cols, bool vector)
   cv::morphologyEx(img, ref, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
   if (type == CV_32FC1)
     ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
-  const bool was = detail::setVectorPaths(vector);
   cv::Mat got;
-  morphOpen(img, got, ksize, KernelShape::kRect, scratch);
-  detail::setVectorPaths(was);
+  morphOpen(img, got, ksize, KernelShape::kRect, scratch, vector);
   EXPECT_TRUE(sameBits(ref, got)) << (vector ? "AVX-512" : "portable") << ", type " << type << ", kernel "
                                    << ksize << ", " << rows << "x" << cols;
 }
@@ -129,12 +127,10 @@ void checkErodeMapped(int type, int rows, int cols, bool vector)
     cv::erode(mapped, ref, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(ksize, ksize)));
     if (type == CV_32FC1)
       ref.setTo(INFINITY, ref == FLT_MAX);
-    const bool was = detail::setVectorPaths(vector);
     cv::Mat got(img.size(), img.type());
     std::vector<T> tmp(cols);
     for (int r = 0; r < rows; ++r)
-      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
-    detail::setVectorPaths(was);
+      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r), vector);
     EXPECT_TRUE(sameBits(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
                                      << (vector ? " AVX-512" : " portable");
   }

@@ -583,12 +583,12 @@ TEST(PipelineEdge, VectorAndPortablePathsGiveTheSameFrame)
         Config cfg;
         cfg.sensor_pitch = 0.3;
         cfg.scan_beams = beams;
-        Pipeline a(cam, cfg), b(cam, cfg);
+        ReferencePaths portable;
+        portable.portable = true;
+        Pipeline a(cam, cfg), b(cam, cfg, portable);
         FrameResult ra, rb;
         a.process(frame, 0.0, roll, ra);
-        const bool was = detail::setVectorPaths(false);
         b.process(frame, 0.0, roll, rb);
-        detail::setVectorPaths(was);
         const std::string where = "width " + std::to_string(cam.width) + ", type " + std::to_string(type) + ", roll " + std::to_string(roll) + ", beams " +
                                   std::to_string(beams);
         ASSERT_EQ(cv::countNonZero(ra.labels != rb.labels), 0) << where;

@@ -1,4 +1,4 @@
-// The core's fast paths against its reference paths (detail::setReferencePaths: the rule pixel by pixel, the
+// The core's fast paths against its reference paths (ReferencePaths, per Pipeline: the rule pixel by pixel, the
 // binning by pixel centres, cv::morphologyEx for the opening), on every scene, encoding and projection, with and
 // without roll, for each opening kernel: the labelling by value and the row kernels of the opening claim the
 // reference's bits; the binning from the bins' borders claims the centres' bins up to float rounding at a border.
@@ -69,15 +69,13 @@ bool sameBits(const std::vector<float>& a, const std::vector<float>& b)
 
 using kp_test::sameBits;
 
-// One frame through a fresh pipeline with the given paths (the previous setting restored).
+// One frame through a fresh pipeline with the given paths.
 FrameResult processWith(const Camera& cam, const Config& cfg, const cv::Mat& frame, const Case& c,
-                        const detail::ReferencePaths& paths)
+                        const ReferencePaths& paths)
 {
-  const detail::ReferencePaths was = detail::setReferencePaths(paths);
-  Pipeline pipe(cam, cfg);
+  Pipeline pipe(cam, cfg, paths);
   FrameResult res;
   pipe.process(frame, SensorPose{1.1, c.pitch, c.roll}, res);
-  detail::setReferencePaths(was);
   return res;
 }
 
@@ -136,7 +134,7 @@ TEST_P(FastVsReference, SameBitsButForTheBinningsBorders)
   EXPECT_TRUE(sameBits(fast.scan.intensities, plain.scan.intensities));
   EXPECT_TRUE(sameBits(fast.cliff.ranges, plain.cliff.ranges));
   // The whole reference path: the same labels and depth; the beams as the centres' binning gives them.
-  const FrameResult ref = processWith(cam, cfg, frame, c, detail::ReferencePaths::all());
+  const FrameResult ref = processWith(cam, cfg, frame, c, ReferencePaths::all());
   EXPECT_TRUE(sameBits(fast.labels, ref.labels));
   EXPECT_TRUE(sameBits(fast.depth, ref.depth));
   EXPECT_EQ(fast.counts, ref.counts);
@@ -185,10 +183,32 @@ TEST(ReferencePaths, TheReferenceBinningRuns)
   const Case c{CV_16UC1, "lab", 0.26, 0.0, 3, Projection::kHorizontal};
   const cv::Mat frame = encodeDepth(metres(cam, c.scene, c.pitch, c.roll), c.type, cfg.max_depth);
   const FrameResult fast = processWith(cam, cfg, frame, c, {});
-  const FrameResult ref = processWith(cam, cfg, frame, c, detail::ReferencePaths::all());
+  const FrameResult ref = processWith(cam, cfg, frame, c, ReferencePaths::all());
   int other_bits = 0;
   for (std::size_t k = 0; k < fast.scan.ranges.size(); ++k)
     other_bits += std::isfinite(fast.scan.ranges[k]) && fast.scan.ranges[k] != ref.scan.ranges[k];
   EXPECT_GT(other_bits, 0);
-  EXPECT_EQ(detail::referencePaths().labels, false) << "processWith restores the setting";
+}
+
+// The choice is the pipeline's own: a fast and a reference pipeline held at once, their frames interleaved, give
+// what each gives alone.
+TEST(ReferencePaths, EachPipelineTakesItsOwnPaths)
+{
+  const Camera cam = kinect();
+  Config cfg;
+  cfg.refine_floor = false;
+  const Case c{CV_16UC1, "lab", 0.26, 0.0, 3, Projection::kHorizontal};
+  const cv::Mat frame = encodeDepth(metres(cam, c.scene, c.pitch, c.roll), c.type, cfg.max_depth);
+  Pipeline fast(cam, cfg), ref(cam, cfg, ReferencePaths::all());
+  EXPECT_FALSE(fast.referencePaths().binning);
+  EXPECT_TRUE(ref.referencePaths().binning);
+  FrameResult a, b;
+  fast.process(frame, SensorPose{1.1, c.pitch, c.roll}, a);
+  ref.process(frame, SensorPose{1.1, c.pitch, c.roll}, b);
+  const FrameResult alone_fast = processWith(cam, cfg, frame, c, {});
+  const FrameResult alone_ref = processWith(cam, cfg, frame, c, ReferencePaths::all());
+  EXPECT_TRUE(sameBits(a.scan.ranges, alone_fast.scan.ranges));
+  EXPECT_TRUE(sameBits(b.scan.ranges, alone_ref.scan.ranges));
+  EXPECT_FALSE(sameBits(a.scan.ranges, b.scan.ranges)) << "the reference binning's roundings (TheReferenceBinningRuns)";
+  EXPECT_TRUE(sameBits(a.labels, b.labels));
 }

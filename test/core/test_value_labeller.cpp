@@ -65,7 +65,7 @@ void checkRows(const std::vector<CurvePoint>& curve, double max_depth, float flo
     const float rise = static_cast<float>(x < 0.75 ? -1.2 * std::pow(1.0 - x / 0.75, 3.0) - 1e-4 : (x - 0.75) * 1.6);
     row[0] = rise;
     const RuleTerms f{{scale, floor_h, ceil_h}, col.data(), row.data(), &lut};
-    const ValueLabeller<T> value(f, terms);
+    const ValueLabeller<T> value(f, terms, true);
     for (int e = 0; e < 3; ++e)  // the near edge, the far edge, and the ceiling plane or the floor itself
     {
       const double floor_at = rise < 0.0f ? floor_h / -rise : 0.0;

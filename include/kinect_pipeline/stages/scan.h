@@ -100,19 +100,13 @@ namespace detail
  * The nearest of range[lo[j] .. hi[j]] into bins[j] (min with what it holds) for j < n, NaN ranges ignored, with
  * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j); with counts, counts[j]
  * also gains the number of finite ranges among them.
- * @return false (nothing done) where the CPU has no AVX-512 or setVectorPaths(false) turned it off
+ * @return false (nothing done) where the CPU or the build has no AVX-512 (see vectorPathsAvailable())
  */
 bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
                  std::int32_t* counts = nullptr);
 /**
- * Whether the hand-written AVX-512 paths (the scan's nearest range per bin, the 3x3 opening, the labelling of a
- * row by value) may run where the CPU has AVX-512 (default true); false forces the portable loops, which give the
- * same bits. For tests: not to be changed while frames are processed. @return the previous setting
- */
-bool setVectorPaths(bool on);
-/**
  * Whether the hand-written AVX-512 paths can run here: the library was built with them (GCC on x86-64) and the CPU
- * has AVX-512 F, BW, DQ and VL. Where not, setVectorPaths changes nothing and the portable loops always run.
+ * has AVX-512 F, BW, DQ and VL. Where not, ReferencePaths::portable changes nothing: the portable loops always run.
  */
 bool vectorPathsAvailable();
 }  // namespace detail

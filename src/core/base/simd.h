@@ -14,8 +14,9 @@
 #define KP_CLONES
 #endif
 
-// The binning's pull (stages/scan/scan.cpp), the 3x3 opening (stages/opening/kernels.cpp) and the labelling of a row by value
-// (stages/labels/by_value.cpp) have AVX-512 paths of their own, picked at run time (detail::vectorPaths).
+// The binning's pull (stages/scan/scan.cpp), the 3x3 opening (stages/opening/kernels.cpp) and the labelling of a
+// row by value (stages/labels/by_value.cpp) have AVX-512 paths of their own, taken at run time where the CPU has
+// them (vectorPathsSupported) and the Pipeline does not ask for the portable loops (ReferencePaths::portable).
 #if defined(__GNUC__) && defined(__x86_64__) && !defined(KP_NO_CLONES)
 #define KP_AVX512_PATHS 1
 #define KP_TARGET_AVX512 __attribute__((target("avx512f,avx512bw,avx512dq,avx512vl")))
@@ -26,9 +27,6 @@ namespace kinect_pipeline
 {
 namespace detail
 {
-/** detail::setVectorPaths (stages/scan.h): whether the hand-written AVX-512 paths may run (tests turn them off). */
-inline bool g_vector_paths = true;
-
 /** Whether the library has the hand-written AVX-512 paths and the CPU the AVX-512 subsets they use. */
 inline bool vectorPathsSupported()
 {
@@ -41,8 +39,6 @@ inline bool vectorPathsSupported()
 #endif
 }
 
-/** Whether the hand-written AVX-512 paths run: supported, and on. */
-inline bool vectorPaths() { return vectorPathsSupported() && g_vector_paths; }
 }  // namespace detail
 
 /**

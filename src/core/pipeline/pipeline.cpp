@@ -24,20 +24,6 @@ namespace detail
 {
 namespace
 {
-ReferencePaths g_reference_paths;
-}  // namespace
-
-ReferencePaths setReferencePaths(const ReferencePaths& paths)
-{
-  const ReferencePaths was = g_reference_paths;
-  g_reference_paths = paths;
-  return was;
-}
-
-ReferencePaths referencePaths() { return g_reference_paths; }
-
-namespace
-{
 /** What the row loop does with each row, set up once per frame. */
 template <typename T>
 struct RowStages
@@ -238,7 +224,8 @@ void checkPose(const SensorPose& pose, double ceiling_height)
 }  // namespace
 }  // namespace detail
 
-Pipeline::Pipeline(const Camera& camera, const Config& config) : work_(std::make_unique<detail::FrameWork>())
+Pipeline::Pipeline(const Camera& camera, const Config& config, const ReferencePaths& paths)
+    : paths_(paths), work_(std::make_unique<detail::FrameWork>())
 {
   camera.validate();
   config.validate();
@@ -340,19 +327,18 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   FrameWork& work = *work_;
   const int threads = config_.num_threads > 0 ? config_.num_threads : defaultThreads();
   work.prepare(threads, camera_.width, camera_.height, projector_.beams());
-  const ReferencePaths ref = referencePaths();
   const float scale = depthScale<T>(config_.max_depth);
 
   // Stage 1: the opening where it is done on the whole image (OpenCV's; else row by row in stage 2).
   const auto t1 = Clock::now();
-  Opening<T> opening(config_, ref.opening, work.opening);
+  Opening<T> opening(config_, paths_, work.opening);
   opening.openWhole(depth, threads);
 
   // Stage 2: the rule's terms at this pose, the labelling, the binning of the projection (chosen here, once).
   const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset()}, planes_.colTerm().data(),
                         planes_.rowTerm().data(), &lut_};
-  const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, !ref.labels);
-  const RowBinner binner(projector_, camera_.width, ref.binning);
+  const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, paths_);
+  const RowBinner binner(projector_, camera_.width, paths_);
   const RowStages<T> stages{opening, labeller, binner, config_.cliff_scan || config_.cliff_in_scan, scale};
   Clock::time_point t2 = t1;
   const RowLoop loop =

@@ -525,22 +525,25 @@ KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s,
 #pragma GCC diagnostic pop
 #endif
 
-// splitRow, with AVX-512 where the CPU has it.
+// splitRow, with AVX-512 where the CPU has it and vector is on.
 template <typename T>
 RowCounts splitRowFast(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
-                       std::uint8_t* cand)
+                       std::uint8_t* cand, bool vector)
 {
 #if defined(KP_AVX512_PATHS)
-  if (detail::vectorPaths())
+  if (vector && detail::vectorPathsSupported())
     return in ? splitRow512<T, true>(src, w, s, lab, dst, in, cand)
               : splitRow512<T, false>(src, w, s, lab, dst, nullptr, nullptr);
+#else
+  (void)vector;
 #endif
   return splitRow<T>(src, w, s, lab, dst, in, cand);
 }
 }  // namespace
 
 template <typename T>
-ValueLabeller<T>::ValueLabeller(const RuleTerms& f, const ValueTerms& terms) : f_(f), terms_(terms)
+ValueLabeller<T>::ValueLabeller(const RuleTerms& f, const ValueTerms& terms, bool vector)
+    : f_(f), terms_(terms), vector_(vector)
 {
   colc_.fill(f.col[0]);
   for (int v = 0; v < 256; ++v)
@@ -565,7 +568,7 @@ bool ValueLabeller<T>::label(int r, const T* src, const T* in, int w, std::uint8
   // does not decrease.
   if (terms_.nondecreasing && split.t1 < Tr::kNoReturn)
     split.min_move = rescueMove(PlaneRule::moveBand(table[split.t1]), 1.0f / f_.rule.scale, Tr::kNoReturn);
-  c = splitRowFast<T>(src, w, split, lab, dst, in, buf.cand);
+  c = splitRowFast<T>(src, w, split, lab, dst, in, buf.cand, vector_);
   if (c.candidates > 0)
   {
     const int kept = c.kept, below = c.below(w);

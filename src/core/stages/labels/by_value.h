@@ -86,7 +86,8 @@ template <typename T>
 class ValueLabeller
 {
 public:
-  ValueLabeller(const RuleTerms& f, const ValueTerms& terms);
+  /** @param vector the AVX-512 row kernel where the CPU has it (false: the portable loop, the same bits) */
+  ValueLabeller(const RuleTerms& f, const ValueTerms& terms, bool vector);
   /** @return false (nothing written) where the row's labels are not (provably) monotone in the value. */
   bool label(int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst, const LabelBuffers& buf,
              RowCounts& c) const;
@@ -97,11 +98,12 @@ private:
   ValueProof proof_;
   std::array<float, 256> colc_;          ///< copies of the column term (all equal)
   std::array<std::uint8_t, 256> values_;  ///< 0, 1, ..., 255: the 8-bit values, labelled as a row
+  bool vector_;
 };
 
 /**
  * Stage 2's labels of a row: by value where the frame has no roll, the encoding is 8- or 16-bit, the proof holds
- * and by_value is allowed; else pixel by pixel (the reference labeller).
+ * and paths.labels is off; else pixel by pixel (the reference labeller).
  */
 template <typename T>
 class RowLabeller
@@ -109,10 +111,11 @@ class RowLabeller
   static constexpr bool kInteger = std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>;
 
 public:
-  /** @param by_value false: every row pixel by pixel (the reference path) */
-  RowLabeller(const RuleTerms& f, const ValueTerms& terms, int w, bool by_value) : f_(f), value_(f, terms)
+  /** @param paths labels: every row pixel by pixel (the reference path); portable: no AVX-512 */
+  RowLabeller(const RuleTerms& f, const ValueTerms& terms, int w, const ReferencePaths& paths)
+      : f_(f), value_(f, terms, !paths.portable)
   {
-    by_value_ = kInteger && by_value;
+    by_value_ = kInteger && !paths.labels;
     for (int u = 1; u < w && by_value_; ++u)
       by_value_ = f.col[u] == f.col[0];
   }
@@ -129,7 +132,7 @@ public:
 private:
   struct None
   {
-    None(const RuleTerms&, const ValueTerms&) {}
+    None(const RuleTerms&, const ValueTerms&, bool) {}
     bool label(int, const T*, const T*, int, std::uint8_t*, T*, const LabelBuffers&, RowCounts&) const { return false; }
   };
   RuleTerms f_;

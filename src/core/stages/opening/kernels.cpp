@@ -209,37 +209,39 @@ struct Box3Vector
 #pragma GCC diagnostic pop
 #endif
 
-// box3Row from the three rows given (w >= 3), with AVX-512 where the CPU has it (8- and 16-bit rows).
+// box3Row from the three rows given (w >= 3), with AVX-512 where the CPU has it and vector is on (8- and 16-bit rows).
 template <typename T, bool kMin, bool kMap>
-void box3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+void box3Rows(const T* a, const T* b, const T* c, int w, T* dst, bool vector)
 {
 #if defined(KP_AVX512_PATHS)
   if constexpr (!std::is_floating_point_v<T>)
   {
-    if (w >= Box3Vector<T, kMin, kMap>::kLanes && vectorPaths())
+    if (vector && w >= Box3Vector<T, kMin, kMap>::kLanes && vectorPathsSupported())
       return Box3Vector<T, kMin, kMap>::row(a, b, c, w, dst);
   }
+#else
+  (void)vector;
 #endif
   box3Row<T, kMin, kMap>(a, b, c, w, dst);
 }
 
 // box3Rows of row r of src and its neighbours (the row itself at the image's top and bottom).
 template <typename T, bool kMin, bool kMap>
-void box3(const cv::Mat& src, int r, T* dst)
+void box3(const cv::Mat& src, int r, T* dst, bool vector)
 {
   const T* b = src.ptr<T>(r);
   const T* a = r > 0 ? src.ptr<T>(r - 1) : b;
   const T* c = r + 1 < src.rows ? src.ptr<T>(r + 1) : b;
-  box3Rows<T, kMin, kMap>(a, b, c, src.cols, dst);
+  box3Rows<T, kMin, kMap>(a, b, c, src.cols, dst, vector);
 }
 }  // namespace
 
 template <typename T, bool kMin>
-KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst, bool vector)
 {
   const int w = src.cols;
   if (rad == 1 && w >= 3)
-    return box3<T, kMin, false>(src, r, dst);
+    return box3<T, kMin, false>(src, r, dst, vector);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   std::copy(first, first + w, tmp);
@@ -253,7 +255,7 @@ KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 }
 
 template <typename T>
-void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst, bool vector)
 {
   if (w < 3)
   {
@@ -264,18 +266,18 @@ void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
     horizontal<T, false>(col, w, 1, dst);
     return;
   }
-  box3Rows<T, false, false>(a, b, c, w, dst);
+  box3Rows<T, false, false>(a, b, c, w, dst, vector);
 }
 
 template <typename T>
-KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst, bool vector)
 {
   using Tr = DepthTraits<T>;
   const int w = src.cols;
   // Floats: mapping each of the nine loads costs more than the separable passes' wait (no cheap order key).
   if constexpr (!std::is_floating_point_v<T>)
     if (rad == 1 && w >= 3)
-      return box3<T, true, true>(src, r, dst);
+      return box3<T, true, true>(src, r, dst, vector);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   for (int u = 0; u < w; ++u)
@@ -290,10 +292,10 @@ KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst
 }
 
 #define KP_INSTANTIATE(T)                                                       \
-  template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*);             \
-  template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*);            \
-  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*);           \
-  template void dilate3Rows<T>(const T*, const T*, const T*, int, T*);
+  template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*, bool);       \
+  template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*, bool);      \
+  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*, bool);     \
+  template void dilate3Rows<T>(const T*, const T*, const T*, int, T*, bool);
 KP_INSTANTIATE(std::uint8_t)
 KP_INSTANTIATE(std::uint16_t)
 KP_INSTANTIATE(float)
@@ -303,19 +305,19 @@ KP_INSTANTIATE(float)
 namespace
 {
 template <typename T>
-void openRect(const cv::Mat& src, cv::Mat& dst, int rad, cv::Mat& scratch)
+void openRect(const cv::Mat& src, cv::Mat& dst, int rad, cv::Mat& scratch, bool vector)
 {
   scratch.create(src.size(), src.type());
   dst.create(src.size(), src.type());
   std::vector<T> tmp(src.cols);
   for (int r = 0; r < src.rows; ++r)
-    detail::rectRow<T, true>(src, r, rad, tmp.data(), scratch.ptr<T>(r));
+    detail::rectRow<T, true>(src, r, rad, tmp.data(), scratch.ptr<T>(r), vector);
   for (int r = 0; r < src.rows; ++r)
-    detail::rectRow<T, false>(scratch, r, rad, tmp.data(), dst.ptr<T>(r));
+    detail::rectRow<T, false>(scratch, r, rad, tmp.data(), dst.ptr<T>(r), vector);
 }
 }  // namespace
 
-void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, cv::Mat& scratch)
+void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, cv::Mat& scratch, bool vector)
 {
   if (ksize < 3 || ksize % 2 == 0)
   {
@@ -334,11 +336,11 @@ void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, c
   switch (src.type())
   {
     case CV_8UC1:
-      return openRect<std::uint8_t>(src, dst, ksize / 2, scratch);
+      return openRect<std::uint8_t>(src, dst, ksize / 2, scratch, vector);
     case CV_16UC1:
-      return openRect<std::uint16_t>(src, dst, ksize / 2, scratch);
+      return openRect<std::uint16_t>(src, dst, ksize / 2, scratch, vector);
     case CV_32FC1:
-      return openRect<float>(src, dst, ksize / 2, scratch);
+      return openRect<float>(src, dst, ksize / 2, scratch, vector);
     default:
       throw std::invalid_argument("morphOpen: image type " + cv::typeToString(src.type()) +
                                   ": expected 8UC1, 16UC1 or 32FC1");

@@ -15,7 +15,8 @@ namespace kinect_pipeline
 namespace detail
 {
 template <typename T>
-Opening<T>::Opening(const Config& config, bool reference, OpeningImages& images) : images_(images)
+Opening<T>::Opening(const Config& config, const ReferencePaths& paths, OpeningImages& images)
+    : vector_(!paths.portable), images_(images)
 {
   ksize_ = config.open_kernel_size;
   rad_ = ksize_ >= 3 ? ksize_ / 2 : 0;
@@ -23,7 +24,7 @@ Opening<T>::Opening(const Config& config, bool reference, OpeningImages& images)
   const bool rect = shape == KernelShape::kRect;
   if (rad_ == 0)
     mode_ = OpeningMode::kNone;
-  else if (!rect || reference)
+  else if (!rect || paths.opening)
     mode_ = OpeningMode::kOpenCV;
   else
     mode_ = rad_ == 1 ? OpeningMode::kStream3 : OpeningMode::kRectRows;
@@ -65,7 +66,7 @@ void Opening<T>::erodeRows(const cv::Mat& depth, OpeningScratch& s) const
   const int h = depth.rows;
 #pragma omp for schedule(static)
   for (int r = 0; r < h; ++r)
-    erodeMappedRow<T>(depth, r, rad_, reinterpret_cast<T*>(s.tmp.data()), images_.eroded.ptr<T>(r));
+    erodeMappedRow<T>(depth, r, rad_, reinterpret_cast<T*>(s.tmp.data()), images_.eroded.ptr<T>(r), vector_);
 }
 
 template <typename T>
@@ -85,16 +86,16 @@ const T* Opening<T>::row(const cv::Mat& depth, int r, OpeningScratch& s) const
         T* ring = reinterpret_cast<T*>(s.ring.data()) + static_cast<std::size_t>(slot) * w;
         if (s.ring_rows[slot] != j)
         {
-          erodeMappedRow<T>(depth, j, 1, tmp, ring);
+          erodeMappedRow<T>(depth, j, 1, tmp, ring, vector_);
           s.ring_rows[slot] = j;
         }
         e[d] = ring;
       }
-      dilate3Rows<T>(e[0], e[1], e[2], w, row);
+      dilate3Rows<T>(e[0], e[1], e[2], w, row, vector_);
       return row;
     }
     case OpeningMode::kRectRows:
-      rectRow<T, false>(images_.eroded, r, rad_, tmp, row);
+      rectRow<T, false>(images_.eroded, r, rad_, tmp, row, vector_);
       return row;
     case OpeningMode::kOpenCV:
       return images_.opened.ptr<T>(r);

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/types.h"
 
 namespace kinect_pipeline
 {
@@ -55,8 +56,8 @@ template <typename T>
 class Opening
 {
 public:
-  /** @param reference true: cv::morphologyEx for every kernel shape (the reference path) */
-  Opening(const Config& config, bool reference, OpeningImages& images);
+  /** @param paths opening: cv::morphologyEx for every kernel shape (the reference path); portable: no AVX-512 */
+  Opening(const Config& config, const ReferencePaths& paths, OpeningImages& images);
   bool opens() const { return mode_ != OpeningMode::kNone; }
   /** Before the row loop: the whole image's opening where OpenCV does it (else nothing). */
   void openWhole(const cv::Mat& depth, int threads);
@@ -70,6 +71,7 @@ private:
   OpeningMode mode_ = OpeningMode::kNone;
   int ksize_ = 0, rad_ = 0;
   int cv_shape_ = 0;
+  bool vector_ = true;  ///< the AVX-512 3x3 kernel where the CPU has it (row kernels' vector argument)
   OpeningImages& images_;
 };
 }  // namespace detail

@@ -221,12 +221,12 @@ void RowBinner::bin(int r, int a, int b, int n, const SpanPlan& plan, BinScratch
       p_.spanRanges(r, a, b, s.z.data(), range);
     if constexpr (std::is_same_v<Acc, MinInto>)
     {
-      if (pullNearest(range, lo, hi, n, acc.bins + plan.first))
+      if (vector_ && pullNearest(range, lo, hi, n, acc.bins + plan.first))
         return;
     }
     else if constexpr (std::is_same_v<Acc, MinCountInto>)
     {
-      if (pullNearest(range, lo, hi, n, acc.bins + plan.first, acc.counts + plan.first))
+      if (vector_ && pullNearest(range, lo, hi, n, acc.bins + plan.first, acc.counts + plan.first))
         return;
     }
     pullBins(range, lo, hi, n, plan.first, acc);

@@ -11,6 +11,7 @@
 #include <opencv2/core.hpp>
 
 #include "kinect_pipeline/stages/scan.h"
+#include "kinect_pipeline/types.h"
 #include "stages/frame_common.h"
 
 namespace kinect_pipeline
@@ -90,9 +91,9 @@ struct KeptDepths
 class RowBinner
 {
 public:
-  /** @param centres_only true: every row by its centres' bearings (the reference path) */
-  RowBinner(const ScanProjector& projector, int width, bool centres_only)
-      : p_(projector), width_(width), centres_only_(centres_only)
+  /** @param paths binning: every row by its centres' bearings (the reference path); portable: no AVX-512 pull */
+  RowBinner(const ScanProjector& projector, int width, const ReferencePaths& paths)
+      : p_(projector), width_(width), centres_only_(paths.binning), vector_(!paths.portable)
   {
   }
   const ScanProjector& projector() const { return p_; }
@@ -120,6 +121,7 @@ private:
   const ScanProjector& p_;
   int width_;
   bool centres_only_;
+  bool vector_;  ///< the AVX-512 pull (detail::pullNearest) where the CPU has it
 };
 
 /** z[u] = opened depth of the pixel u labelled below floor, +Inf for the others, u in [u0, u1]. */

@@ -498,7 +498,7 @@ bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::
                          std::int32_t* counts)
 {
 #if defined(KP_AVX512_PATHS)
-  if (!vectorPaths())
+  if (!vectorPathsSupported())
     return false;
   if (counts)
     pullMin512<true>(range, lo, hi, n, bins, counts);
@@ -514,13 +514,6 @@ bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::
   (void)counts;
   return false;
 #endif
-}
-
-bool detail::setVectorPaths(bool on)
-{
-  const bool was = g_vector_paths;
-  g_vector_paths = on;
-  return was;
 }
 
 bool detail::vectorPathsAvailable() { return vectorPathsSupported(); }
