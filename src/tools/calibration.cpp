@@ -2,12 +2,15 @@
 #include "kinect_pipeline/tools/calibration.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <random>
 #include <stdexcept>
 
+#include "kinect_pipeline/model/plane_fit.h"
 #include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/model/sensor_model.h"
+#include "kinect_pipeline/stages/floor_fit.h"
 
 namespace kinect_pipeline
 {
@@ -24,7 +27,7 @@ struct Plane
   double d;     // camera's distance above the plane: n . p + d = 0 for p on the plane
 };
 
-// The up vector seen in the optical frame is (-cos(p) sin(r), -cos(p) cos(r), -sin(p)) for R = Ry(p) Rx(r).
+// The up vector seen in the optical frame is row 2 of levelFromOptical (pose.h): see planeOf().
 bool planeFrom3(const Pt& a, const Pt& b, const Pt& c, Plane& out)
 {
   const double u[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, v[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
@@ -160,19 +163,33 @@ bool searchFloor(const std::vector<Pt>& pts, const CalibrationOptions& o, Plane&
   return true;
 }
 
-/** A weighted least-squares plane: its inliers, their weighted centroid c and scatter cov, the weights' sum. */
+/** The floor plane of a sensor pose in the optical frame: "up" is the level frame's z seen from the optical frame. */
+Plane planeOf(const SensorPose& s)
+{
+  const std::array<double, 9> m = levelFromOptical(s.pitch, s.roll);
+  return {{m[6], m[7], m[8]}, s.height};
+}
+
+/** The sensor pose whose floor is plane p. */
+SensorPose poseOf(const Plane& p)
+{
+  SensorPose s{p.d, 0.0, 0.0};
+  pitchRollFromUp(p.n, s.pitch, s.roll);
+  return s;
+}
+
+/** A weighted least-squares plane: its inliers and the normal equations of its last pass. */
 struct Refit
 {
   Plane p;
   std::vector<const Pt*> in;
-  double cov[3][3] = {};
-  double wsum = 0.0;
-  double c[3] = {0, 0, 0};
+  PlaneSums sums;  ///< in the level frame of the pose the last pass started from
 };
 
 /**
  * Weighted least-squares refits on the inliers of p (weights 1 / sigma(z)^2), three times, re-selecting the
- * inliers. @return false where fewer than 10 remain.
+ * inliers: the plane z = a + b x + c y of plane_fit.h (the floor fit's) in the level frame of the pose p gives, as
+ * the floor fit does, the pose whose floor that plane is. @return false where fewer than 10 inliers remain.
  */
 bool refitPlane(const std::vector<Pt>& pts, const Plane& start, Refit& f)
 {
@@ -185,38 +202,16 @@ bool refitPlane(const std::vector<Pt>& pts, const Plane& start, Refit& f)
         f.in.push_back(&q);
     if (f.in.size() < 10)
       return false;
-    f.c[0] = f.c[1] = f.c[2] = 0.0;
-    f.wsum = 0.0;
+    const SensorPose at = poseOf(p);
+    const std::array<double, 9> m = levelFromOptical(at.pitch, at.roll);
+    f.sums = PlaneSums{};
     for (const Pt* q : f.in)
-    {
-      f.c[0] += q->w * q->x;
-      f.c[1] += q->w * q->y;
-      f.c[2] += q->w * q->z;
-      f.wsum += q->w;
-    }
-    for (double& x : f.c)
-      x /= f.wsum;
-    for (auto& row : f.cov)
-      for (double& x : row)
-        x = 0.0;
-    for (const Pt* q : f.in)
-    {
-      const double d[3] = {q->x - f.c[0], q->y - f.c[1], q->z - f.c[2]};
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          f.cov[i][j] += q->w * d[i] * d[j];
-    }
-    cv::Mat C(3, 3, CV_64F, f.cov), evals, evecs;
-    cv::eigen(C, evals, evecs);  // descending: the last row is the normal
-    double n[3] = {evecs.at<double>(2, 0), evecs.at<double>(2, 1), evecs.at<double>(2, 2)};
-    double d = -(n[0] * f.c[0] + n[1] * f.c[1] + n[2] * f.c[2]);
-    if (d < 0)
-    {
-      for (double& x : n)
-        x = -x;
-      d = -d;
-    }
-    p = {{n[0], n[1], n[2]}, d};
+      f.sums.add(m[0] * q->x + m[1] * q->y + m[2] * q->z, m[3] * q->x + m[4] * q->y + m[5] * q->z,
+                 m[6] * q->x + m[7] * q->y + m[8] * q->z, q->w);
+    double abc[3];
+    if (!solvePlane(f.sums.m, f.sums.rhs, abc))
+      return false;
+    p = planeOf(poseFromFloorPlane(at, abc[0], abc[1], abc[2]));
   }
   f.p = p;
   return true;
@@ -239,28 +234,14 @@ void describeFloor(const Refit& f, std::size_t points, FloorPose& out)
   out.floor_pixels = static_cast<int>(f.in.size());
   out.floor_fraction = static_cast<double>(f.in.size()) / points;
   out.rms = std::sqrt(ss / f.in.size());
-  // Uncertainty of a weighted plane fit: the residual scale over the weighted spread along each direction.
+  // Uncertainty of a weighted plane fit: the residual scale times each term's standard deviation per unit weight.
+  // In the level frame the height is -a, and the pitch and roll are the slopes b and c to first order.
   const double scale = std::sqrt(wss / std::max<std::size_t>(1, f.in.size() - 3));
-  double e1[3], e2[3];
-  double cov[3][3];
-  std::copy(&f.cov[0][0], &f.cov[0][0] + 9, &cov[0][0]);
-  cv::Mat C(3, 3, CV_64F, cov), evals, evecs;
-  cv::eigen(C, evals, evecs);
-  for (int i = 0; i < 3; ++i)
-  {
-    e1[i] = evecs.at<double>(0, i);
-    e2[i] = evecs.at<double>(1, i);
-  }
-  const double l1 = std::max(evals.at<double>(0), 1e-12), l2 = std::max(evals.at<double>(1), 1e-12);
-  const double s1 = scale / std::sqrt(l1), s2 = scale / std::sqrt(l2);
-  // Tilting the normal towards e1 / e2 by s1 / s2 radians; map onto pitch (optical z) and roll (optical x).
-  out.pitch_std = std::hypot(s1 * e1[2], s2 * e2[2]);
-  out.roll_std = std::hypot(s1 * e1[0], s2 * e2[0]);
-  // The height is the plane's distance from the camera: its offset at the centroid, plus the tilt times the
-  // centroid's lever arm.
-  const double* c = f.c;
-  const double arm1 = e1[0] * c[0] + e1[1] * c[1] + e1[2] * c[2], arm2 = e2[0] * c[0] + e2[1] * c[1] + e2[2] * c[2];
-  out.height_std = std::sqrt(scale * scale / f.wsum + std::pow(s1 * arm1, 2) + std::pow(s2 * arm2, 2));
+  double var[3];
+  planeTermVariances(f.sums.m, var);
+  out.height_std = scale * std::sqrt(var[0]);
+  out.pitch_std = scale * std::sqrt(var[1]);
+  out.roll_std = scale * std::sqrt(var[2]);
 }
 }  // namespace
 

@@ -7,6 +7,7 @@
 
 #include "base/simd.h"
 #include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/plane_fit.h"
 #include "kinect_pipeline/model/pose.h"
 
 namespace kinect_pipeline
@@ -63,39 +64,6 @@ SensorPose plus(const SensorPose& p, const PoseCorrection& c)
 PoseCorrection minus(const SensorPose& a, const SensorPose& b)
 {
   return {a.height - b.height, a.pitch - b.pitch, a.roll - b.roll};
-}
-
-/** Solves the symmetric 3x3 system n x = g; false if n is singular. */
-bool solve3(const double n[6], const double g[3], double x[3])
-{
-  // n: xx, xy, xz, yy, yz, zz
-  const double a = n[0], b = n[1], c = n[2], d = n[3], e = n[4], f = n[5];
-  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
-  const double det = a * c00 + b * c01 + c * c02;
-  if (!(std::fabs(det) > 0.0) || !std::isfinite(det))
-    return false;
-  const double c11 = a * f - c * c, c12 = b * c - a * e, c22 = a * d - b * b;
-  x[0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) / det;
-  x[1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) / det;
-  x[2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) / det;
-  return true;
-}
-
-/** Diagonal of the inverse of the symmetric 3x3 n (+Inf where singular). */
-void inverseDiagonal(const double n[6], double out[3])
-{
-  const double a = n[0], b = n[1], c = n[2], d = n[3], e = n[4], f = n[5];
-  const double c00 = d * f - e * e, c01 = c * e - b * f, c02 = b * e - c * d;
-  const double det = a * c00 + b * c01 + c * c02;
-  const double inf = std::numeric_limits<double>::infinity();
-  if (!(det > 0.0) || !std::isfinite(det))
-  {
-    out[0] = out[1] = out[2] = inf;
-    return;
-  }
-  out[0] = c00 / det;
-  out[1] = (a * f - c * c) / det;
-  out[2] = (a * d - b * b) / det;
 }
 
 template <typename T>
@@ -307,7 +275,7 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
                     sums);
     const double reg[6] = {sums[0] + prior_w[0], sums[1], sums[2], sums[3] + prior_w[1], sums[4], sums[5] + prior_w[2]};
     double sol[3];
-    if (!solve3(reg, sums + 6, sol))
+    if (!solvePlane(reg, sums + 6, sol))
       break;
     p.a = sol[0];
     p.b = sol[1];
@@ -329,7 +297,7 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
   }
   p.spread = p.support ? std::sqrt(ss / p.support) : 0.0;
   double var[3];
-  inverseDiagonal(sums, var);
+  planeTermVariances(sums, var);
   const double k = std::max(1.0, kBandSigmas * p.spread);
   p.std_a = k * std::sqrt(var[0]);
   p.std_b = k * std::sqrt(var[1]);
