@@ -1,5 +1,5 @@
-// The rendered scenes the core tests share (the ray caster's, tools/synthetic.h): a lab, boxes on a bare floor, a hole in
-// the floor, a stair down across the whole view.
+// The rendered scenes the core tests share (the ray caster's, tools/synthetic.h): a lab, boxes on a bare floor, a hole
+// in the floor, a stair down across the whole view.
 #pragma once
 
 #include "kinect_pipeline/tools/synthetic.h"

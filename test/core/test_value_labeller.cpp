@@ -1,8 +1,8 @@
-// The labelling by value thresholds (src/core/stages/labels/by_value.h, private to the core) against the reference labeller,
-// the rule pixel by pixel (stages/labels/per_pixel.h), row by row: wherever it takes a row, the same labels, cleaned depths,
-// counts and rescue, bit for bit. Rows at every rise from steeply down to up, whose values crowd around the floor
-// band's two edges and the ceiling plane, with the rescue's raw values above the opened ones, for curves the proof
-// holds for, one whose 1 cm cells make d - t dip (windowed), and one too steep for it; 8 and 16 bits.
+// The labelling by value thresholds (src/core/stages/labels/by_value.h, private to the core) against the reference
+// labeller, the rule pixel by pixel (stages/labels/per_pixel.h), row by row: wherever it takes a row, the same labels,
+// cleaned depths, counts and rescue, bit for bit. Rows at every rise from steeply down to up, whose values crowd around
+// the floor band's two edges and the ceiling plane, with the rescue's raw values above the opened ones, for curves the
+// proof holds for, one whose 1 cm cells make d - t dip (windowed), and one too steep for it; 8 and 16 bits.
 #include <gtest/gtest.h>
 
 #include <algorithm>

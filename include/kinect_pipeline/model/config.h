@@ -104,7 +104,8 @@ struct Config
   double min_intensity = 0.2;        ///< intensity at or below which a filtered beam becomes NaN
   bool intensity_filter = false;     ///< NaN the finite beams with intensity <= min_intensity
 
-  /// Floor refinement (stages/floor_fit.h): the pose corrected from the frame's own floor before the planes are predicted.
+  /// Floor refinement (stages/floor_fit.h): the pose corrected from the frame's own floor before the planes are
+  /// predicted.
   bool refine_floor = true;              ///< fit the floor to the frame; false: the pose exactly as given
   double floor_max_height_error = 0.08;  ///< largest correction of the sensor height [m] (and the band searched)
   double floor_max_pitch_error = 0.035;  ///< largest correction of the pitch [rad] (2 deg)

@@ -1,9 +1,9 @@
 // Pipeline (pipeline.h): a frame's input checks and pose, then its stages. Design notes: docs/core_design.md, and
 // docs/floor_refinement.md for the floor fit that starts each frame.
-//   stage 1  stages/opening/opening.h         unknown pixels to no return, the opening
-//   stage 2  the row loop here, each row: labels (stages/labels/by_value.h, stages/labels/per_pixel.h by the rule of stages/labels/rule.h),
-//            its below-floor and kept pixels into the thread's beams (stages/scan/binning.h)
-//   stage 3  stages/scan/output.h     the threads' bins merged, surface_band, the cliff scan, REP 117, confidence
+//   stage 1  stages/opening/opening.h  unknown pixels to no return, the opening
+//   stage 2  the row loop here, each row: labels (stages/labels/by_value.h, stages/labels/per_pixel.h by the rule
+//            of stages/labels/rule.h), its below-floor and kept pixels into the thread's beams (stages/scan/binning.h)
+//   stage 3  stages/scan/output.h      the threads' bins merged, surface_band, the cliff scan, REP 117, confidence
 #include "kinect_pipeline/pipeline.h"
 
 #include <algorithm>

@@ -1,6 +1,6 @@
-// The labels of 8- and 16-bit rows without roll by value thresholds (stages/labels/by_value.h): the proof that a row's labels
-// are monotone in the value, the search for the thresholds, the row kernels (portable and AVX-512) and the rescue's
-// flags. Design notes: docs/core_design.md ("Labels by value").
+// The labels of 8- and 16-bit rows without roll by value thresholds (stages/labels/by_value.h): the proof that a row's
+// labels are monotone in the value, the search for the thresholds, the row kernels (portable and AVX-512) and the
+// rescue's flags. Design notes: docs/core_design.md ("Labels by value").
 #include "stages/labels/by_value.h"
 
 #include <algorithm>

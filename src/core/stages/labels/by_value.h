@@ -1,7 +1,7 @@
-// Private to the core: the labelling of an 8- or 16-bit row without roll by value thresholds, the proof that the
-// row's labels are monotone in the value (whose terms are computed from the rule, stages/labels/rule.h), and the labelling
-// stage that takes it where the proof holds and labels pixel by pixel elsewhere (stages/labels/per_pixel.h).
-// Design notes: docs/core_design.md ("Labels by value").
+// Private to the core: the labelling of an 8- or 16-bit row without roll by value thresholds, the proof that the row's
+// labels are monotone in the value (whose terms are computed from the rule, stages/labels/rule.h), and the labelling
+// stage that takes it where the proof holds and labels pixel by pixel elsewhere (stages/labels/per_pixel.h). Design
+// notes: docs/core_design.md ("Labels by value").
 #pragma once
 
 #include <array>

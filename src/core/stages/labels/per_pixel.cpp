@@ -1,5 +1,5 @@
-// The reference labeller: the plane removal rule (stages/labels/rule.h) pixel by pixel, and the rescue (stages/labels/per_pixel.h).
-// Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
+// The reference labeller: the plane removal rule (stages/labels/rule.h) pixel by pixel, and the rescue
+// (stages/labels/per_pixel.h). Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
 #include "stages/labels/per_pixel.h"
 
 #include <cstring>

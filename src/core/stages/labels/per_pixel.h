@@ -1,6 +1,6 @@
-// Private to the core: the reference labeller, the plane removal rule (stages/labels/rule.h) applied pixel by pixel, and the
-// rescue. Every row can be labelled this way; the value labelling (stages/labels/by_value.h) must give the same bits.
-// Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
+// Private to the core: the reference labeller, the plane removal rule (stages/labels/rule.h) applied pixel by pixel,
+// and the rescue. Every row can be labelled this way; the value labelling (stages/labels/by_value.h) must give the same
+// bits. Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
 #pragma once
 
 #include <cstdint>

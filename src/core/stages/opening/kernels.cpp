@@ -1,5 +1,5 @@
-// The opening's row kernels (stages/opening_kernels.h), checked against OpenCV bit for bit. Design notes: docs/core_design.md
-// ("Stage 1: the opening").
+// The opening's row kernels (stages/opening_kernels.h), checked against OpenCV bit for bit. Design notes:
+// docs/core_design.md ("Stage 1: the opening").
 #include "kinect_pipeline/stages/opening_kernels.h"
 
 #include <algorithm>

@@ -1,5 +1,5 @@
-// ScanProjector (stages/scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border crossings.
-// Design notes: docs/core_design.md ("The scan").
+// ScanProjector (stages/scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border
+// crossings. Design notes: docs/core_design.md ("The scan").
 #include "kinect_pipeline/stages/scan.h"
 
 #include "base/simd.h"
