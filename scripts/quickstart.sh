@@ -19,7 +19,7 @@ APT_PACKAGES=(
   python3-tf2-ros libopencv-dev libgtest-dev googletest pybind11-dev python3-pybind11 python3-numpy
   python3-opencv python3-pytest python3-matplotlib libdiagnostic-updater-dev libgeometry-msgs-dev
   python3-rosbag python3-roslaunch python3-rostopic python3-diagnostic-msgs python3-std-srvs rviz xvfb x11-apps
-  imagemagick image-transport-tools
+  imagemagick image-transport-tools libcamera-calibration-parsers-dev libroslib-dev
   clang libclang-rt-14-dev libomp-14-dev
 )
 

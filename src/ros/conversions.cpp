@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <sstream>
+#include <stdexcept>
 
 #include <sensor_msgs/image_encodings.h>
 
+#include "kinect_pipeline/io/compressed_depth.h"
 #include "kinect_pipeline/io/depth_image.h"
 #include "kinect_pipeline/io/visualize.h"
 #include "kinect_pipeline/model/pose.h"
@@ -25,6 +28,26 @@ Camera cameraFromInfo(const sensor_msgs::CameraInfo& info)
   std::array<double, 9> K;
   std::copy(info.K.begin(), info.K.end(), K.begin());
   return cameraFromIntrinsics(info.width, info.height, K, info.header.frame_id);
+}
+
+cv::Mat depthFromCompressed(const sensor_msgs::CompressedImage& image, cv::Size expected)
+{
+  const std::string& format = image.format;
+  if (format.find("compressedDepth") != std::string::npos || format.find(';') == std::string::npos)
+    return decodeCompressedDepth(format, image.data, expected);
+  // compressed_image_transport writes "<encoding>; <png|jpeg> compressed [<target encoding>]".
+  std::istringstream words(format.substr(format.find(';') + 1));
+  std::string encoding = format.substr(0, format.find(';')), codec, compressed;
+  encoding.erase(0, encoding.find_first_not_of(' '));
+  encoding.erase(encoding.find_last_not_of(' ') + 1);
+  words >> codec >> compressed;
+  if (compressed == "compressed" && codec == "png" && (encoding == "16UC1" || encoding == "mono16"))
+    return decodeCompressedDepth("16UC1; compressedDepth png", image.data, expected);  // a bare 16-bit PNG
+  throw std::invalid_argument("CompressedImage format '" + format +
+                              "': not a depth format this node reads; supported: '16UC1; png compressed' or "
+                              "'mono16; png compressed' (compressed_image_transport's PNG of 16-bit depth, "
+                              "~image_transport compressed) and compressedDepth ('16UC1; compressedDepth png', "
+                              "'... rvl', '32FC1; compressedDepth ...', ~image_transport compressedDepth)");
 }
 
 bool isSupportedEncoding(const std::string& e)

@@ -65,7 +65,12 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   for (auto d : drops_)
     dropped += d;
   const std::uint64_t out = frames_out_;
-  if (out == 0 && dropped == 0)
+  if (out == 0 && infos_in_ == 0 && images_without_info_ > 0)
+    stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                  "waiting for camera_info on %s: %llu image(s) without it (no camera_info topic? set "
+                  "~camera_info_url or ~intrinsics)",
+                  info_topic_.c_str(), static_cast<unsigned long long>(images_without_info_));
+  else if (out == 0 && dropped == 0)
     stat.summary(diagnostic_msgs::DiagnosticStatus::WARN, "no frame yet");
   else if (dropped > 0 && !last_problem_.empty())
     stat.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%llu frame(s) dropped; last: %s",
@@ -74,6 +79,12 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
     stat.summary(diagnostic_msgs::DiagnosticStatus::OK, "processing");
   stat.add("frames in", static_cast<unsigned long long>(frames_in_.load()));
   stat.add("frames out", static_cast<unsigned long long>(out));
+  stat.add("images without camera_info", static_cast<unsigned long long>(images_without_info_));
+  stat.add("camera_info received", static_cast<unsigned long long>(infos_in_));
+  stat.add("camera_info paired: same stamp", static_cast<unsigned long long>(paired_exact_));
+  stat.add("camera_info paired: latest (stamps differ, camera unchanged)", static_cast<unsigned long long>(paired_latest_));
+  stat.add("camera from parameters (frames)", static_cast<unsigned long long>(paired_param_));
+  stat.add("camera from", camera_from_.empty() ? std::string("(no frame yet)") : camera_from_);
   for (int i = 0; i < static_cast<int>(DropReason::kCount); ++i)
     stat.add(std::string("dropped: ") + toString(static_cast<DropReason>(i)), static_cast<unsigned long long>(drops_[i]));
   stat.add("pose fallbacks", static_cast<unsigned long long>(pose_fallbacks_));
@@ -146,8 +157,10 @@ std::string usageText()
        "usage: rosrun kinect_pipeline kinect_pipeline_node [image:=TOPIC] [_NAME:=VALUE ...]\n"
        "       roslaunch kinect_pipeline kinect_pipeline.launch [camera:=kinect2] [manager:=MANAGER] ...\n\n"
        "Subscribed (node namespace, remappable):\n"
-       "  image, camera_info   sensor_msgs/Image (8UC1/mono8, 16UC1/mono16 mm, 32FC1 m) + CameraInfo;\n"
-       "                       with _image_transport:=compressedDepth: image/compressedDepth (CompressedImage)\n"
+       "  image, camera_info   sensor_msgs/Image (8UC1/mono8, 16UC1/mono16 mm, 32FC1 m) + CameraInfo (or the camera\n"
+       "                       from _camera_info_url:=file:///cam.yaml or _intrinsics:='fx fy cx cy width height');\n"
+       "                       _image_transport:=compressedDepth or compressed: image/compressedDepth or\n"
+       "                       image/compressed (CompressedImage; 16-bit PNG), decoded here\n"
        "  imu                  sensor_msgs/Imu, base pitch and roll (pose_source imu)\n"
        "  base_pitch           std_msgs/Float64, base pitch [rad] (pose_source pitch_topic)\n"
        "  /tf, /tf_static      the image's frame in base_frame (pose_source tf)\n"
@@ -160,7 +173,7 @@ std::string usageText()
   const KinectPipelineConfig& d = KinectPipelineConfig::__getDefault__();
   const std::vector<std::string> main{"pose_source", "base_frame", "scan_frame", "sensor_height", "sensor_pitch",
                                       "ceiling_height", "range_min", "range_max", "refine_floor", "pose_hold_time",
-                                      "pose_fallback", "num_threads"};
+                                      "pose_fallback", "camera_info_url", "intrinsics", "num_threads"};
   for (const std::string& name : main)
     for (const auto& p : KinectPipelineConfig::__getParamDescriptions__())
       if (p->name == name)
@@ -178,7 +191,8 @@ std::string usageText()
           def << boost::any_cast<std::string>(v);
         u << "  " << name << " (" << p->type << ", default " << def.str() << "): " << p->description << "\n";
       }
-  u << "  image_transport (str, default raw): raw, compressedDepth (decoded here) or an installed transport\n\n"
+  u << "  image_transport (str, default raw): raw, compressedDepth, compressed (decoded here) or an installed "
+       "transport\n\n"
        "Every parameter, with unit and range, and the launch files: README.md, 'ROS interface'";
   for (const char* readme : {KP_README_INSTALLED, KP_README_SOURCE})
     if (std::ifstream(readme).good())

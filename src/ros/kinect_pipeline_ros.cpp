@@ -60,6 +60,8 @@ const char* toString(DropReason r)
       return "refused by the core";
     case DropReason::kInternal:
       return "internal error";
+    case DropReason::kNoCameraInfo:
+      return "no camera_info";
     default:
       return "?";
   }
@@ -80,6 +82,11 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
   applySensorModelParameters(pnh_, name_);  // the preset's values are then checked as if the user had set them
   startupSettings(pnh_, name_);
   const std::string transport = checkTransport();
+  transport_ = transport;
+  image_topic_ = nh_.resolveName("image");
+  info_topic_ = image_transport::getCameraInfoTopic(image_topic_);
+  if (transport == "compressedDepth" || transport == "compressed")
+    image_topic_ += "/" + transport;  // a CompressedImage topic, subscribed and decoded here
 
   // Everything a callback touches exists before the first subscription: in a nodelet manager with several
   // threads, callbacks may run before this constructor returns.
@@ -97,8 +104,10 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
       [this] { republishParameters(); });
   // Diagnostics keep coming when every frame is dropped, none arrives, or ROS time jumps back (Updater::update()
   // would wait for ROS time to pass its next deadline again): only this wall timer publishes them.
+  started_ = ros::WallTime::now();
   diagnostics_timer_ = nh_.createWallTimer(ros::WallDuration(0.5), [this](const ros::WallTimerEvent&) {
     checkClock();
+    warnIfWaiting();
     diagnostics_.force_update();
   });
 
@@ -115,7 +124,7 @@ std::string KinectPipelineRos::checkTransport()
 {
   std::string transport;
   pnh_.param<std::string>("image_transport", transport, "raw");
-  if (transport == "raw" || transport == "compressedDepth")
+  if (transport == "raw" || transport == "compressedDepth" || transport == "compressed")
     return transport;
   std::vector<std::string> loadable;
   for (std::string t : it_.getLoadableTransports())
@@ -127,37 +136,36 @@ std::string KinectPipelineRos::checkTransport()
     names += (names.empty() ? "" : ", ") + t;
   throw StartupError(name_ + ": ~image_transport = '" + transport +
                      "': no image_transport plugin for it is installed (image_transport can load: " + names +
-                     "). Expected raw, compressedDepth (decoded by kinect_pipeline itself) or an installed transport.");
+                     "). Expected raw, compressedDepth or compressed (both decoded by kinect_pipeline itself) or an "
+                     "installed transport.");
 }
 
 void KinectPipelineRos::subscribe(const std::string& transport)
 {
-  const std::string image = nh_.resolveName("image");
-  if (transport == "compressedDepth")
+  // The image and its camera_info are subscribed apart and paired here (CameraInfoPairing): image_transport's
+  // CameraSubscriber pairs by exact stamp only, and says nothing useful when camera_info never comes.
+  const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
+  info_sub_ = nh_.subscribe(info_topic_, 5, &KinectPipelineRos::infoCb, this, hints);
+  if (transport == "compressedDepth" || transport == "compressed")
   {
-    // Debian has image_transport's raw plugin only: compressedDepth is decoded here, from the topic its
-    // publisher writes (compressed_depth_image_transport: <image>/compressedDepth).
-    const ros::TransportHints hints = ros::TransportHints().tcpNoDelay();
-    compressed_sub_.subscribe(nh_, image + "/compressedDepth", 2, hints);
-    info_sub_.subscribe(nh_, image_transport::getCameraInfoTopic(image), 2, hints);
-    sync_ = std::make_unique<message_filters::TimeSynchronizer<sensor_msgs::CompressedImage, sensor_msgs::CameraInfo>>(
-        compressed_sub_, info_sub_, 5);
-    sync_->registerCallback(&KinectPipelineRos::compressedCb, this);
-    ROS_INFO("%s: listening on %s/compressedDepth (decoded here) + %s, publishing %s", name_.c_str(), image.c_str(),
-             image_transport::getCameraInfoTopic(image).c_str(), scan_pub_.getTopic().c_str());
+    // Debian has image_transport's raw plugin only: compressedDepth (compressed_depth_image_transport) and 16-bit
+    // PNG compressed (compressed_image_transport) are decoded here, from the topic their publishers write.
+    compressed_sub_ = nh_.subscribe(image_topic_, 2, &KinectPipelineRos::compressedCb, this, hints);
+    ROS_INFO("%s: listening on %s (decoded here) + %s, publishing %s", name_.c_str(), image_topic_.c_str(),
+             info_topic_.c_str(), scan_pub_.getTopic().c_str());
     return;
   }
   try
   {
-    sub_ = it_.subscribeCamera("image", 2, &KinectPipelineRos::imageCb, this,
-                               image_transport::TransportHints(transport, ros::TransportHints().tcpNoDelay(), pnh_));
+    image_sub_ = it_.subscribe("image", 2, &KinectPipelineRos::imageCb, this,
+                               image_transport::TransportHints(transport, hints, pnh_));
   }
   catch (const image_transport::TransportLoadException& e)
   {
     throw StartupError(name_ + ": ~image_transport = '" + transport + "' cannot be loaded: " + e.what());
   }
-  ROS_INFO("%s: listening on %s (+ camera_info, transport %s), publishing %s", name_.c_str(), sub_.getTopic().c_str(),
-           transport.c_str(), scan_pub_.getTopic().c_str());
+  ROS_INFO("%s: listening on %s (transport %s) + %s, publishing %s", name_.c_str(), image_topic_.c_str(),
+           transport.c_str(), info_topic_.c_str(), scan_pub_.getTopic().c_str());
 }
 
 void KinectPipelineRos::republishParameters()
@@ -170,9 +178,9 @@ void KinectPipelineRos::republishParameters()
 KinectPipelineRos::~KinectPipelineRos()
 {
   // Stop what calls into this object before its members go.
-  sub_.shutdown();
-  compressed_sub_.unsubscribe();
-  info_sub_.unsubscribe();
+  image_sub_.shutdown();
+  compressed_sub_.shutdown();
+  info_sub_.shutdown();
   imu_sub_.shutdown();
   pitch_sub_.shutdown();
   diagnostics_timer_.stop();
@@ -223,7 +231,7 @@ void KinectPipelineRos::pitchCb(const std_msgs::Float64ConstPtr& msg)
   pitch_pose_.valid = true;
 }
 
-void KinectPipelineRos::drop(DropReason reason, const std::string& message)
+void KinectPipelineRos::drop(DropReason reason, const std::string& message, bool log)
 {
   // Throttled per reason (one line per reason every 5 s), so that one bad input does not hide another.
   const int i = static_cast<int>(reason);
@@ -240,7 +248,7 @@ void KinectPipelineRos::drop(DropReason reason, const std::string& message)
       say = true;
     }
   }
-  if (say)
+  if (say && log)
     ROS_ERROR("%s: frame dropped (%s): %s [%llu dropped for this reason so far]", name_.c_str(), toString(reason),
               message.c_str(), static_cast<unsigned long long>(count));
 }
@@ -316,25 +324,132 @@ void KinectPipelineRos::guarded(F&& work)
   }
 }
 
-void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info)
+void KinectPipelineRos::imageCb(const sensor_msgs::ImageConstPtr& image)
 {
-  guarded([&] { arrive(Input{image->header, info, image, nullptr}); });
+  guarded([&] { received(Input{image->header, nullptr, image, nullptr}); });
 }
 
-void KinectPipelineRos::compressedCb(const sensor_msgs::CompressedImageConstPtr& image,
-                                     const sensor_msgs::CameraInfoConstPtr& info)
+void KinectPipelineRos::compressedCb(const sensor_msgs::CompressedImageConstPtr& image)
 {
-  guarded([&] { arrive(Input{image->header, info, nullptr, image}); });
+  guarded([&] { received(Input{image->header, nullptr, nullptr, image}); });
 }
 
-void KinectPipelineRos::arrive(const Input& in)
+void KinectPipelineRos::infoCb(const sensor_msgs::CameraInfoConstPtr& info)
 {
+  guarded([&] {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    {
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++infos_in_;
+    }
+    CameraInfoPairing::Outcome out = pairing_.info(info);
+    if (!out.paired.empty() || !out.given_up.empty())
+      paired(std::move(out), checkClock());
+  });
+}
+
+void KinectPipelineRos::received(Input in)
+{
+  std::lock_guard<std::mutex> lock(frame_mutex_);
   // The clock first: a rate window it restarts must count this frame.
   const std::uint64_t epoch = checkClock();
   ++frames_in_;
   input_freq_.tick();
   ++ticks_since_rate_restart_;
   exchange_.take(active_);  // settings change between frames only, and whole
+  if (active_ && active_->camera_info)
+  {
+    in.info = active_->camera_info;  // ~intrinsics or ~camera_info_url: no camera_info topic needed
+    {
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      ++paired_param_;
+      camera_from_ = active_->camera_info_from;
+    }
+    return arrive(in, epoch);
+  }
+  if (pairing_.infos() == 0)
+  {
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    if (images_without_info_++ == 0)
+      first_without_info_ = ros::WallTime::now();
+  }
+  paired(pairing_.image(std::move(in)), epoch);
+}
+
+void KinectPipelineRos::paired(CameraInfoPairing::Outcome&& out, std::uint64_t epoch)
+{
+  for (const Input& lost : out.given_up)
+  {
+    const auto& latest = pairing_.latest();
+    // Without any camera_info the timer's warning says it (warnIfWaiting()); counted here either way.
+    drop(DropReason::kNoCameraInfo,
+         "no camera_info for the image of stamp " + seconds(lost.header.stamp) + " on " + info_topic_ +
+             (latest ? " (the latest has stamp " + seconds(latest->header.stamp) + " and the camera changed, so "
+                                                                                   "it is not used for other stamps)"
+                     : std::string(" (none received yet)")),
+         latest != nullptr);
+  }
+  {
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    paired_exact_ = pairing_.paired(InfoMatch::kExactStamp);
+    paired_latest_ = pairing_.paired(InfoMatch::kLatest);
+  }
+  for (Input& in : out.paired)
+  {
+    const bool exact = in.info->header.stamp == in.header.stamp;
+    {
+      std::lock_guard<std::mutex> stats(stats_mutex_);
+      camera_from_ = info_topic_ + (exact ? " (same stamp)" : " (the latest; its stamps differ from the images')");
+    }
+    if (!exact && !recency_said_)
+    {
+      recency_said_ = true;
+      ROS_INFO("%s: the camera_info on %s has other stamps than the images (image %s, camera_info %s s): each image "
+               "is paired with the latest camera_info while it does not change (K, D, size, frame); counted in "
+               "/diagnostics",
+               name_.c_str(), info_topic_.c_str(), seconds(in.header.stamp).c_str(),
+               seconds(in.info->header.stamp).c_str());
+    }
+    exchange_.take(active_);
+    arrive(in, epoch);
+  }
+}
+
+void KinectPipelineRos::warnIfWaiting()
+{
+  std::uint64_t without = 0, in = frames_in_.load();
+  ros::WallTime first;
+  const ros::WallTime now = ros::WallTime::now();
+  {
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    without = infos_in_ == 0 ? images_without_info_ : 0;
+    first = first_without_info_;
+    const bool due = last_wait_warning_.isZero() || (now - last_wait_warning_).toSec() >= 10.0;
+    const double since = (now - (without ? first : started_)).toSec();
+    // Images without camera_info are said within seconds; no image at all only after a while (a driver starting).
+    if (!due || (without == 0 && in > 0) || since < (without ? 2.0 : 10.0))
+      return;
+    last_wait_warning_ = now;
+  }
+  if (without > 0)
+  {
+    ROS_WARN("%s: %llu image(s) on %s in %.1f s but no sensor_msgs/CameraInfo on %s: waiting for it, no scan "
+             "without the camera's intrinsics. If the camera or bag has none, give ~camera_info_url (a camera_info "
+             "YAML as camera_calibration writes it, file:///...) or ~intrinsics 'fx fy cx cy width height' "
+             "(README, 'No CameraInfo?')",
+             name_.c_str(), static_cast<unsigned long long>(without), image_topic_.c_str(), (now - first).toSec(),
+             info_topic_.c_str());
+    return;
+  }
+  // No image at all (the diagnostics timer may not ask the master: it must not block while the master is away).
+  ROS_WARN("%s: no image on %s (~image_transport %s) in %.0f s; if the camera publishes another transport (%s "
+           "and /compressedDepth: decoded here), set ~image_transport (launch image_transport:=...) to it",
+           name_.c_str(), image_topic_.c_str(), transport_.c_str(), (now - started_).toSec(),
+           (nh_.resolveName("image") + "/compressed").c_str());
+}
+
+void KinectPipelineRos::arrive(const Input& in, std::uint64_t epoch)
+{
   if (!active_)
     return;
   if (epoch != clock_epoch_seen_)
@@ -366,6 +481,15 @@ void KinectPipelineRos::arrive(const Input& in)
 bool KinectPipelineRos::inOrder(const Input& in)
 {
   const ros::Time stamp = in.header.stamp;
+  if (!last_stamp_.isZero() && stamp == sequence_start_ && stamp <= last_stamp_)
+  {
+    // The first stamp of this sequence again: a bag played in a loop (with a single frame, nothing else tells).
+    if (pending_)
+      dropPending();
+    restart("the image stamps jumped back from " + seconds(last_stamp_) + " to " + seconds(stamp) +
+            " s, the first stamp of this sequence (a bag played again or in a loop)");
+    return true;
+  }
   if (pending_)
   {
     if (stamp <= last_stamp_ && stamp > pending_->header.stamp)
@@ -416,7 +540,7 @@ bool KinectPipelineRos::depthOf(const Input& in, const Camera& cam, cv::Mat& dep
   }
   try
   {
-    depth = decodeCompressedDepth(in.compressed->format, in.compressed->data, cv::Size(cam.width, cam.height));
+    depth = conversions::depthFromCompressed(*in.compressed, cv::Size(cam.width, cam.height));
   }
   catch (const std::invalid_argument& e)
   {
@@ -487,6 +611,8 @@ void KinectPipelineRos::publish(const NodeSettings& s, const Input& in, const st
 {
   const std_msgs::Header& header = in.header;
   const double scan_time = last_stamp_.isZero() ? 0.0 : (header.stamp - last_stamp_).toSec();
+  if (last_stamp_.isZero())
+    sequence_start_ = header.stamp;
   last_stamp_ = header.stamp;
   auto scan = boost::make_shared<sensor_msgs::LaserScan>();
   conversions::toLaserScan(result_.scan, header, s.scan_frame, scan_time, *scan);

@@ -1,6 +1,7 @@
 #include "kinect_pipeline/ros/parameters.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <set>
 #include <sstream>
@@ -103,6 +104,7 @@ std::vector<std::string> settingsProblems(const KinectPipelineConfig& c, NodeSet
   s.tf_timeout = c.tf_timeout;
   s.pose_hold_time = c.pose_hold_time;
   s.pose_max_age = c.pose_max_age;
+  attempt([&] { s.camera_info = cameraInfoFromParameters(c.intrinsics, c.camera_info_url, s.camera_info_from); });
   return problems;
 }
 
@@ -217,6 +219,42 @@ std::size_t editDistance(const std::string& a, const std::string& b)
   }
   return row[b.size()];
 }
+
+/** "~range_max = 10 (the preset's 4)" when the server's value of a preset field differs from the preset's, else "". */
+std::string presetOverride(const ros::NodeHandle& pnh, const ConfigField& f, const Config& preset)
+{
+  XmlRpc::XmlRpcValue v;
+  pnh.getParam(f.name, v);
+  Config server = preset;
+  bool same = false;
+  try
+  {
+    if (v.getType() == XmlRpc::XmlRpcValue::TypeString && (f.kind == FieldKind::kCurve || f.kind == FieldKind::kChoice))
+    {
+      f.setText(server, std::string(v));  // compared as parsed: spacing does not count
+      same = f.text(server) == f.text(preset);
+    }
+    else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt || v.getType() == XmlRpc::XmlRpcValue::TypeDouble)
+    {
+      const double x = v.getType() == XmlRpc::XmlRpcValue::TypeInt ? double(int(v)) : double(v);
+      same = std::fabs(x - f.number(preset)) <= 1e-9 * std::max(1.0, std::fabs(x));
+    }
+  }
+  catch (const std::invalid_argument&)
+  {
+    same = false;  // a bad value: the startup check names it
+  }
+  if (same)
+    return "";
+  std::ostringstream o;
+  o << "~" << f.name << " = " << describe(v) << " (the preset's: ";
+  if (f.kind == FieldKind::kReal || f.kind == FieldKind::kInteger)
+    o << f.number(preset);
+  else
+    o << "'" << f.text(preset) << "'";
+  o << ")";
+  return o.str();
+}
 }  // namespace
 
 std::string asParameterNames(std::string message)
@@ -286,11 +324,17 @@ void applySensorModelParameters(const ros::NodeHandle& pnh, const std::string& n
     throw StartupError(node_name + ": not starting: ~" + e.what());
   }
   std::string set;
+  std::vector<std::string> overriding;
   for (const std::string& field : sensorModelFields())
   {
-    if (pnh.hasParam(field))
-      continue;
     const ConfigField& f = configField(field);
+    if (pnh.hasParam(field))
+    {
+      const std::string o = presetOverride(pnh, f, preset);
+      if (!o.empty())
+        overriding.push_back(o);
+      continue;
+    }
     if (f.kind == FieldKind::kReal)
       pnh.setParam(field, f.number(preset));
     else if (f.kind == FieldKind::kInteger)
@@ -301,6 +345,11 @@ void applySensorModelParameters(const ros::NodeHandle& pnh, const std::string& n
   }
   ROS_INFO("%s: sensor_model %s (%s): %s from the preset", node_name.c_str(), name.c_str(),
            sensorModel(name).description.c_str(), set.empty() ? "nothing" : set.c_str());
+  if (!overriding.empty())
+    ROS_WARN("%s: ~sensor_model %s: %s on the parameter server override the preset. If you did not set them, an "
+             "earlier run left them there (the node writes every parameter, and a roscore keeps them): delete them "
+             "(rosparam delete %s/PARAMETER) or start with kinect_pipeline.launch, which clears them first",
+             node_name.c_str(), name.c_str(), join(overriding, ", ").c_str(), pnh.getNamespace().c_str());
 }
 
 const std::vector<std::string>& extraParameterNames()

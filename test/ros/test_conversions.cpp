@@ -6,10 +6,13 @@
 #include <sensor_msgs/image_encodings.h>
 #include <tf2/LinearMath/Matrix3x3.h>
 #include <tf2/LinearMath/Quaternion.h>
+#include <boost/make_shared.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "kinect_pipeline/model/config_table.h"
 #include "kinect_pipeline/ros/conversions.h"
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
+#include "kinect_pipeline/ros/parameters.h"
 
 using namespace kinect_pipeline;
 using namespace kinect_pipeline::conversions;
@@ -291,4 +294,153 @@ TEST(Settings, ClosestParameterOfOurs)
   EXPECT_EQ(closestParameter("range_maximum"), "range_max");
   EXPECT_EQ(closestParameter("sensor_pich"), "sensor_pitch");
   EXPECT_EQ(closestParameter("refine_flor"), "refine_floor");
+}
+
+// ------------------------------------------------------------------------------ camera_info pairing (issue 28)
+namespace
+{
+sensor_msgs::CameraInfoConstPtr infoAt(double stamp, double fx = 365.0)
+{
+  auto i = boost::make_shared<sensor_msgs::CameraInfo>(info(fx));
+  i->header.stamp = ros::Time(stamp);
+  return i;
+}
+
+DepthInput imageAt(double stamp)
+{
+  DepthInput in;
+  in.header.stamp = ros::Time(stamp);
+  return in;
+}
+
+std::vector<double> stamps(const std::vector<DepthInput>& v)
+{
+  std::vector<double> s;
+  for (const DepthInput& in : v)
+    s.push_back(in.header.stamp.toSec());
+  return s;
+}
+}  // namespace
+
+TEST(Pairing, ImagesWithoutAnyCameraInfoWaitAndTheOldestIsGivenUp)
+{
+  CameraInfoPairing p(3);
+  for (int k = 1; k <= 5; ++k)
+  {
+    const auto out = p.image(imageAt(k));
+    EXPECT_TRUE(out.paired.empty());
+    EXPECT_EQ(stamps(out.given_up), k <= 3 ? std::vector<double>{} : std::vector<double>{k - 3.0});
+  }
+  EXPECT_EQ(p.waiting(), 3u);
+}
+
+TEST(Pairing, SameStampFirstAndImagesNewerThanTheLatestWaitForTheirOwn)
+{
+  CameraInfoPairing p;
+  EXPECT_TRUE(p.image(imageAt(1)).paired.empty());  // its camera_info comes after it
+  auto out = p.info(infoAt(1));
+  ASSERT_EQ(stamps(out.paired), std::vector<double>{1});
+  EXPECT_EQ(out.paired[0].info->header.stamp, ros::Time(1));
+  // Images have been finding their own: the next waits for its own rather than taking the latest.
+  EXPECT_TRUE(p.image(imageAt(2)).paired.empty());
+  out = p.info(infoAt(2));
+  ASSERT_EQ(stamps(out.paired), std::vector<double>{2});
+  EXPECT_EQ(out.paired[0].info->header.stamp, ros::Time(2));
+  EXPECT_EQ(p.paired(InfoMatch::kExactStamp), 2u);
+  EXPECT_EQ(p.paired(InfoMatch::kLatest), 0u);
+}
+
+TEST(Pairing, AnUnchangingCameraInfoOfOtherStampsIsPairedByRecency)
+{
+  CameraInfoPairing p;
+  p.info(infoAt(0));  // rostopic pub -r 5: stamp 0, the same K every time
+  for (int k = 1; k <= 4; ++k)
+  {
+    const auto out = p.image(imageAt(100 + k));
+    ASSERT_EQ(stamps(out.paired), std::vector<double>{100.0 + k});
+    EXPECT_EQ(out.paired[0].info->header.stamp, ros::Time(0));
+    if (k == 2)
+      p.info(infoAt(0));
+  }
+  EXPECT_EQ(p.paired(InfoMatch::kLatest), 4u);
+}
+
+TEST(Pairing, AChangedCameraIsNotUsedForOtherStamps)
+{
+  CameraInfoPairing p(2);
+  p.info(infoAt(0));
+  p.info(infoAt(0, 500.0));  // the camera changed: only its own stamp pairs now
+  EXPECT_EQ(p.changes(), 1u);
+  EXPECT_TRUE(p.image(imageAt(5)).paired.empty());
+  auto out = p.info(infoAt(5, 500.0));
+  ASSERT_EQ(stamps(out.paired), std::vector<double>{5});
+  EXPECT_EQ(out.paired[0].info->K[0], 500.0);
+  // The same camera as the one before: an older image whose own camera_info did not come takes the latest.
+  EXPECT_EQ(stamps(p.image(imageAt(4)).paired), std::vector<double>{4});
+  EXPECT_EQ(p.paired(InfoMatch::kLatest), 1u);
+}
+
+TEST(Pairing, AnImageOlderThanTheLatestCameraInfoTakesItWhenItsOwnDidNotCome)
+{
+  CameraInfoPairing p;
+  p.image(imageAt(1));
+  p.info(infoAt(1));  // exact stamps so far
+  EXPECT_TRUE(p.image(imageAt(2)).paired.empty());
+  const auto out = p.info(infoAt(3));  // 2's camera_info was lost; 3's came, the camera unchanged
+  ASSERT_EQ(stamps(out.paired), std::vector<double>{2});
+  EXPECT_EQ(out.paired[0].info->header.stamp, ros::Time(3));
+}
+
+TEST(CameraParameters, IntrinsicsAndUrlsAreReadOrRefusedNamingTheValue)
+{
+  std::string from;
+  EXPECT_EQ(cameraInfoFromParameters("", "", from), nullptr);
+  const auto i = cameraInfoFromParameters("211.5, 211.5 212 120.5 424 240", "", from);
+  ASSERT_NE(i, nullptr);
+  EXPECT_EQ(i->width, 424u);
+  EXPECT_EQ(i->height, 240u);
+  EXPECT_EQ(i->K[0], 211.5);
+  EXPECT_EQ(i->K[5], 120.5);
+  EXPECT_EQ(from, "~intrinsics = '211.5, 211.5 212 120.5 424 240'");
+  std::string m = message([&] { cameraInfoFromParameters("211 211 212 120", "", from); });
+  EXPECT_NE(m.find("~intrinsics = '211 211 212 120': 4 numbers; expected six"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("211 211 212 120 424 24x", "", from); });
+  EXPECT_NE(m.find("'24x' is not a number"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("0 211 212 120 424 240", "", from); });
+  EXPECT_NE(m.find("~intrinsics = '0 211 212 120 424 240': camera_info K[0] (fx) = 0"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("211 211 212 120 424 240", "file:///a.yaml", from); });
+  EXPECT_NE(m.find("both set"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("", "/tmp/a.yaml", from); });
+  EXPECT_NE(m.find("~camera_info_url = '/tmp/a.yaml': a path without its scheme (write file:///tmp/a.yaml)"),
+            std::string::npos)
+      << m;
+  m = message([&] { cameraInfoFromParameters("", "http://cam/calib.yaml", from); });
+  EXPECT_NE(m.find("expected file:///absolute/path.yaml or package://"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("", "file:///nonexistent/kp_calib.yaml", from); });
+  EXPECT_NE(m.find("cannot read '/nonexistent/kp_calib.yaml'"), std::string::npos) << m;
+  m = message([&] { cameraInfoFromParameters("", "package://no_such_package_kp/c.yaml", from); });
+  EXPECT_NE(m.find("no ROS package 'no_such_package_kp'"), std::string::npos) << m;
+}
+
+TEST(Conversions, PngCompressedSixteenBitDepthIsDecodedAndOtherFormatsNamed)
+{
+  cv::Mat depth(4, 6, CV_16UC1);
+  for (int k = 0; k < 24; ++k)
+    depth.at<std::uint16_t>(k / 6, k % 6) = static_cast<std::uint16_t>(500 + 97 * k);
+  std::vector<std::uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", depth, png));
+  sensor_msgs::CompressedImage msg;
+  msg.format = "16UC1; png compressed ";
+  msg.data = png;
+  const cv::Mat got = depthFromCompressed(msg, cv::Size(6, 4));
+  EXPECT_EQ(cv::norm(got, depth, cv::NORM_INF), 0.0);
+  msg.format = "mono16; png compressed";
+  EXPECT_EQ(cv::norm(depthFromCompressed(msg, cv::Size()), depth, cv::NORM_INF), 0.0);
+  msg.format = "16UC1; jpeg compressed ";
+  std::string m = message([&] { depthFromCompressed(msg, cv::Size()); });
+  EXPECT_NE(m.find("'16UC1; jpeg compressed ': not a depth format this node reads; supported: '16UC1; png compressed'"),
+            std::string::npos)
+      << m;
+  msg.format = "bgr8; jpeg compressed bgr8";
+  EXPECT_NE(message([&] { depthFromCompressed(msg, cv::Size()); }).find("not a depth format"), std::string::npos);
 }

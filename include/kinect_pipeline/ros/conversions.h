@@ -10,6 +10,7 @@
 #include <geometry_msgs/Transform.h>
 #include <opencv2/core.hpp>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/LaserScan.h>
 #include <std_msgs/Header.h>
@@ -40,6 +41,16 @@ Camera cameraFromInfo(const sensor_msgs::CameraInfo& info);
  *        data shorter than step * height, quoting the values.
  */
 cv::Mat depthFromImage(const sensor_msgs::Image& image, cv::Mat& buffer);
+
+/**
+ * @brief The depth image of a sensor_msgs/CompressedImage: compressed_depth_image_transport's compressedDepth
+ *        ("16UC1; compressedDepth png", RVL, 32FC1; see the core's compressed_depth.h), or compressed_image_transport's
+ *        PNG of 16-bit depth ("16UC1; png compressed", "mono16; png compressed": a bare 16-bit PNG).
+ * @param expected the size camera_info gives (empty: any)
+ * @throw std::invalid_argument naming the format and what is supported (8-bit, JPEG or colour formats are no depth
+ *        this node reads), or the payload's problem
+ */
+cv::Mat depthFromCompressed(const sensor_msgs::CompressedImage& image, cv::Size expected);
 
 /** @return true for the encodings depthFromImage() reads. */
 bool isSupportedEncoding(const std::string& encoding);

@@ -17,8 +17,6 @@
 #include <diagnostic_updater/publisher.h>
 #include <dynamic_reconfigure/server.h>
 #include <image_transport/image_transport.h>
-#include <message_filters/subscriber.h>
-#include <message_filters/time_synchronizer.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/CompressedImage.h>
@@ -31,6 +29,7 @@
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/ros/camera_info_pairing.h"
 #include "kinect_pipeline/ros/master_reconnect.h"
 #include "kinect_pipeline/ros/parameters.h"
 #include "kinect_pipeline/settings_exchange.h"
@@ -51,6 +50,7 @@ enum class DropReason : int
   kZeroStamp,
   kProcessing,
   kInternal,
+  kNoCameraInfo,
   kCount
 };
 const char* toString(DropReason r);
@@ -62,8 +62,9 @@ std::string usageText();
  * Subscribes a depth image + camera_info, runs the core at the pose of the image's stamp and publishes the
  * scan, the cleaned depth image and (when someone listens) a debug image of the labels.
  *
- * Topics (node namespace, remappable): in `image` (+ its `camera_info`; `image/compressedDepth` with
- * ~image_transport compressedDepth), `imu`, `base_pitch`; out `scan`, `cliff_scan`, `image_processed`,
+ * Topics (node namespace, remappable): in `image` (+ its `camera_info`, or the camera from ~intrinsics or
+ * ~camera_info_url; `image/compressedDepth` or `image/compressed` with ~image_transport compressedDepth or
+ * compressed), `imu`, `base_pitch`; out `scan`, `cliff_scan`, `image_processed`,
  * `image_labels`, `/diagnostics`; tf: base_frame -> scan_frame (pose_source tf), else the image's frame -> scan_frame.
  */
 class KinectPipelineRos
@@ -80,14 +81,8 @@ public:
   std::uint64_t framesOut() const { return frames_out_; }
 
 private:
-  /** One input frame, raw or compressedDepth, kept whole while its fate is open (see inOrder()). */
-  struct Input
-  {
-    std_msgs::Header header;
-    sensor_msgs::CameraInfoConstPtr info;
-    sensor_msgs::ImageConstPtr image;                // raw transport
-    sensor_msgs::CompressedImageConstPtr compressed;  // compressedDepth
-  };
+  /** One input frame, kept whole while its fate is open (see CameraInfoPairing and inOrder()). */
+  using Input = DepthInput;
   /** A pose for one frame and where it came from. */
   struct FramePose
   {
@@ -106,8 +101,15 @@ private:
 
   std::string checkTransport();
   void subscribe(const std::string& transport);
-  void imageCb(const sensor_msgs::ImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
-  void compressedCb(const sensor_msgs::CompressedImageConstPtr& image, const sensor_msgs::CameraInfoConstPtr& info);
+  void imageCb(const sensor_msgs::ImageConstPtr& image);
+  void compressedCb(const sensor_msgs::CompressedImageConstPtr& image);
+  void infoCb(const sensor_msgs::CameraInfoConstPtr& info);
+  /** An image arrives: counted, then paired with its camera_info (now, later or never), then arrive(). */
+  void received(Input in);
+  /** What the pairing gave: the paired frames arrive(), the ones given up are dropped. */
+  void paired(CameraInfoPairing::Outcome&& out, std::uint64_t epoch);
+  /** Called by the diagnostics timer: a warning while images come without any camera_info, or none come. */
+  void warnIfWaiting();
   void reconfigureCb(KinectPipelineConfig& config, uint32_t level);
   void imuCb(const sensor_msgs::ImuConstPtr& msg);
   void pitchCb(const std_msgs::Float64ConstPtr& msg);
@@ -117,8 +119,8 @@ private:
   /** Wraps a frame callback so that no exception ever leaves it. */
   template <typename F>
   void guarded(F&& work);
-  /** A frame arrives: settings, clock and stamp checks, then process() (now, later or never). */
-  void arrive(const Input& in);
+  /** A frame arrives with its camera_info: clock and stamp checks, then process() (now, later or never). */
+  void arrive(const Input& in, std::uint64_t epoch);
   /** The frame's work once its stamp is accepted. */
   void process(const Input& in);
   /** @return false when the frame must be dropped. */
@@ -138,7 +140,8 @@ private:
   std::uint64_t checkClock();
   /** After a master restart: the parameters in force back onto the (new) parameter server. */
   void republishParameters();
-  void drop(DropReason reason, const std::string& message);
+  /** Counts a dropped frame; @p log: also an error line (throttled per reason). */
+  void drop(DropReason reason, const std::string& message, bool log = true);
   /** @return false when the frame must be dropped. */
   bool poseFor(const NodeSettings& s, const std_msgs::Header& header, FramePose& pose);
   bool fallback(const NodeSettings& s, const std_msgs::Header& header, const std::string& why, FramePose& pose);
@@ -150,10 +153,9 @@ private:
   ros::NodeHandle nh_, pnh_;
   std::string name_;
   image_transport::ImageTransport it_;
-  image_transport::CameraSubscriber sub_;
-  message_filters::Subscriber<sensor_msgs::CompressedImage> compressed_sub_;
-  message_filters::Subscriber<sensor_msgs::CameraInfo> info_sub_;
-  std::unique_ptr<message_filters::TimeSynchronizer<sensor_msgs::CompressedImage, sensor_msgs::CameraInfo>> sync_;
+  image_transport::Subscriber image_sub_;
+  ros::Subscriber compressed_sub_, info_sub_;
+  std::string image_topic_, info_topic_, transport_;
   image_transport::Publisher depth_pub_, debug_pub_;
   ros::Publisher scan_pub_, cliff_pub_;
   ros::Subscriber imu_sub_, pitch_sub_;
@@ -181,7 +183,11 @@ private:
   std::mutex topic_mutex_;  // guards imu_pose_ and pitch_pose_
   TopicPose imu_pose_, pitch_pose_;
 
-  // Only the frame callback touches these.
+  // Only the frame callbacks (image and camera_info, one at a time under frame_mutex_) touch these.
+  std::mutex frame_mutex_;
+  CameraInfoPairing pairing_;
+  bool recency_said_ = false;  // that images are paired with the latest camera_info was said
+  ros::Time sequence_start_;   // the first stamp since the history started (a bag's loop starts there again)
   FramePipeline pipeline_;
   FrameResult result_;
   cv::Mat swap_buffer_;
@@ -212,6 +218,10 @@ private:
   std::array<ros::WallTime, static_cast<int>(DropReason::kCount)> last_drop_log_{};
   std::uint64_t pose_fallbacks_ = 0, fallbacks_last_ = 0, fallbacks_static_ = 0, static_disagreements_ = 0;
   std::uint64_t params_refused_ = 0, clock_resets_ = 0, stamp_resets_ = 0, camera_changes_ = 0;
+  // camera_info: images that came while none had come (and no camera from parameters), and how frames were paired.
+  std::uint64_t images_without_info_ = 0, infos_in_ = 0, paired_exact_ = 0, paired_latest_ = 0, paired_param_ = 0;
+  std::string camera_from_;               // where the last frame's camera came from
+  ros::WallTime first_without_info_, last_wait_warning_, started_;
   std::string last_problem_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0, last_wait_ms_ = 0.0, max_wait_ms_ = 0.0;
   std::array<std::uint64_t, kNumLabels> label_totals_{};

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <ros/node_handle.h>
+#include <sensor_msgs/CameraInfo.h>
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
 #include "kinect_pipeline/model/config.h"
@@ -32,7 +33,23 @@ struct NodeSettings
   double pose_hold_time = 1.0;           ///< [s] the last good pose stands in this long when the source has nothing
   std::string pose_fallback = "static";  ///< after the hold: static | last | drop
   double pose_max_age = 0.5;             ///< [s] oldest imu / pitch topic message used
+  /** The camera from ~intrinsics or ~camera_info_url; null: from the camera_info topic. */
+  sensor_msgs::CameraInfoConstPtr camera_info;
+  std::string camera_info_from;  ///< "~intrinsics = '...'" or "~camera_info_url = '...'", for messages
 };
+
+/**
+ * @brief The camera_info the parameters give, for cameras and bags without a camera_info topic.
+ * @param intrinsics "fx fy cx cy width height" (spaces or commas), or empty
+ * @param url a camera_info YAML (or INI) as camera_calibration writes it: file:///absolute/path or
+ *        package://PACKAGE/path, as camera drivers' ~camera_info_url; or empty
+ * @param[out] from which parameter it came from, with its value
+ * @return null when both are empty
+ * @throw std::invalid_argument naming the parameter, its value and what was expected (both set, a URL of another
+ *        scheme, a missing file, a file the parser refuses, intrinsics that are not six numbers or no camera)
+ */
+sensor_msgs::CameraInfoConstPtr cameraInfoFromParameters(const std::string& intrinsics, const std::string& url,
+                                                         std::string& from);
 
 /**
  * @brief Settings from a dynamic_reconfigure config: validated as a whole.
