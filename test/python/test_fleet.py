@@ -129,9 +129,11 @@ def test_local_cluster_mixed_inputs_a_damaged_bag_and_a_rerun_that_does_nothing(
     assert rows["e_frames"]["phantom_proxy"] == ""  # no LiDAR in a folder of frames
     assert rows["damaged.bag"]["status"].startswith("damaged: ") and "byte" in rows["damaged.bag"]["status"]
     assert rows["e_frames"]["kind"] == "frames" and rows["a.bag"]["kind"] == "bag"
-    # a right tf: nothing learned; b.bag's wrong mount: a correction towards it, growing over the recording
+    # a right tf: nothing learned; b.bag's wrong mount: a correction towards it, learned from the first frames on
+    # (each fit weighs by its precision), so it hardly drifts over the recording
     assert float(rows["a.bag"]["learned_height_m"]) == 0 and float(rows["a.bag"]["drift_pitch_deg"]) == 0
-    assert float(rows["b.bag"]["learned_height_m"]) < -0.001 and float(rows["b.bag"]["drift_height_m"]) > 0.001
+    assert float(rows["b.bag"]["learned_height_m"]) < -0.001
+    assert 0 <= float(rows["b.bag"]["drift_height_m"]) < 0.5 * abs(float(rows["b.bag"]["learned_height_m"]))
     doc = json.loads((out / "fleet.json").read_text())
     assert all(len(x["series"]) == FRAMES for x in doc["rows"] if x["status"] == "ok")
     page = (out / "index.html").read_text()

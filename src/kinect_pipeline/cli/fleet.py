@@ -140,9 +140,10 @@ def run(args: argparse.Namespace) -> int:
     if args.threads < 0:
         raise ToolError(f"--threads {args.threads}: expected >= 0 (0: OpenMP's default)")
     configs = configurations(args)
+    replay = bag_options(args, pose_fallback=args.pose_fallback, skip_bad=args.skip_bad)
     opts = FleetOptions(
-        replay=bag_options(args, pose_fallback=args.pose_fallback, skip_bad=args.skip_bad),
-        intrinsics=tuple(args.intrinsics) if args.intrinsics else None,
+        replay=replay,
+        intrinsics=tuple(replay.intrinsics) if replay.intrinsics else None,
         sensor_model=args.sensor_model,
         depth_scale=args.depth_scale,
         frame_rate=args.frame_rate,

@@ -23,7 +23,8 @@ import numpy as np
 
 from .. import _core
 from ..bags.messages import LASER_SCAN, stamp
-from ..bags.reader import CameraInfos, open_bag, pick_topics, read_side
+from ..bags.reader import open_bag, read_side
+from ..intrinsics import Intrinsics, IntrinsicsError
 from ..bags.ros1 import BagError, Damage
 from ..bags.tf import read_tf
 from ..evaluation.metrics import phantom_beams
@@ -211,7 +212,8 @@ class FleetOptions:
     options of folders of frames, and the core threads per task."""
 
     replay: ReplayOptions = field(default_factory=ReplayOptions)
-    intrinsics: tuple[float, float, float, float] | None = None  #: of folders of frames (else --sensor-model's)
+    #: fx, fy, cx, cy[, width, height] of folders of frames (else --sensor-model's)
+    intrinsics: tuple[float, ...] | None = None
     sensor_model: str | None = None
     depth_scale: float = 0.001  #: of 16-bit frames [m per unit]
     frame_rate: float = 30.0  #: of folders of frames (the floor refinement's learning runs in time) [Hz]
@@ -448,15 +450,15 @@ def _run_bag(path: Path, opts: FleetOptions, tracks: list[_Track], events: _Even
     with open_bag(path, recover=opts.replay.skip_bad) as bag:
         for d in bag.damage:
             damages(d)
-        depth, info = pick_topics(list(bag.connections), opts.replay.depth_topic, opts.replay.info_topic)
+        depth, info = opts.replay.topics(bag)
         tf = read_tf(bag, damages)
-        infos = CameraInfos(bag, info, damages)
+        cameras = opts.replay.cameras(bag, info, damages)
         lidar = _Lidar(bag, opts.lidar_topic, damages)
         frames = []
         for t in tracks:
             t.report.depth_topic = depth
             config = {"num_threads": opts.threads, **t.config}
-            frames.append(_Frames(bag, tf, infos, replace(opts.replay, config=config), t.report))
+            frames.append(_Frames(bag, tf, cameras, replace(opts.replay, config=config), t.report))
         conns = [c for c in bag.connections if c.topic == depth]
         for conn, _, raw, where in bag.records(conns, on_damage=damages):
             for t in tracks:
@@ -488,7 +490,10 @@ def _compare(tracks: list[_Track]) -> None:
 
 def _frames_camera(opts: FleetOptions, shape: tuple[int, ...]) -> Any:
     if opts.intrinsics is not None:
-        return _core.Camera(shape[1], shape[0], *opts.intrinsics)
+        try:
+            return Intrinsics.from_list(opts.intrinsics).camera(shape[1], shape[0])
+        except IntrinsicsError as exc:
+            raise FleetError(str(exc)) from exc
     if not opts.sensor_model:
         raise FleetError("a folder of depth frames needs --intrinsics FX FY CX CY (or --sensor-model NAME)")
     cam = _core.sensor_model(opts.sensor_model)["camera"]
