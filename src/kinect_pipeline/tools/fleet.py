@@ -24,10 +24,10 @@ import numpy as np
 from .. import _core
 from ..bags.messages import LASER_SCAN, stamp
 from ..bags.reader import open_bag, read_side
-from ..intrinsics import Intrinsics, IntrinsicsError
 from ..bags.ros1 import BagError, Damage
 from ..bags.tf import read_tf
 from ..evaluation.metrics import phantom_beams
+from ..intrinsics import Intrinsics, IntrinsicsError
 from ..outputs import write_text
 from .calibrate import FRAME_SUFFIXES, calibrate, frame_paths, load_depth
 from .replay import ReplayOptions, ReplayReport, _Frames, reasons
