@@ -484,11 +484,19 @@ bool KinectPipelineRos::inOrder(const Input& in)
   if (!last_stamp_.isZero() && stamp == sequence_start_ && stamp <= last_stamp_)
   {
     // The first stamp of this sequence again: a bag played in a loop (with a single frame, nothing else tells).
-    if (pending_)
+    // A held frame older than it is the new pass's first (the sequence began with the bag's second frame when
+    // the first was published before this node was connected): it is served, not dropped.
+    std::optional<Input> first;
+    if (pending_ && pending_->header.stamp < stamp)
+      first.swap(pending_);
+    else if (pending_)
       dropPending();
-    restart("the image stamps jumped back from " + seconds(last_stamp_) + " to " + seconds(stamp) +
-            " s, the first stamp of this sequence (a bag played again or in a loop)");
-    return true;
+    restart("the image stamps jumped back from " + seconds(last_stamp_) + " to " +
+            seconds(first ? first->header.stamp : stamp) + " s, the first stamp of this sequence " +
+            "(a bag played again or in a loop)");
+    if (first)
+      process(*first);
+    return last_stamp_.isZero() || stamp > last_stamp_;
   }
   if (pending_)
   {

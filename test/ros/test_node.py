@@ -300,6 +300,21 @@ class NodeTest(unittest.TestCase):
         # Good frames go on being served.
         self.assert_scan_equal(self.scan_after(rospy.Time.now()), self.expected(TILT))
 
+    def test_7b_a_loop_whose_first_pass_began_at_its_second_frame_drops_nothing(self) -> None:
+        # rosbag play publishes before the node is connected, so the first pass may begin at the bag's second
+        # frame; on the next pass, the first frame (older than that start) must be served, not dropped.
+        order0 = self.current("dropped: stamp out of order")
+        seen = len(self.scans)
+        base = rospy.Time.now() - rospy.Duration(3.0)
+        bag = [base + rospy.Duration(0.1 * k) for k in range(1, 5)]
+        with self.feeder.lock:
+            self.feeder.stamps = bag[1:] + bag + bag
+        self.wait_for("three passes served", lambda: sum(s.header.stamp == bag[-1] for s in self.scans[seen:]) >= 3)
+        served = [s.header.stamp for s in self.scans[seen:] if s.header.stamp <= bag[-1]]
+        self.assertEqual(served, bag[1:] + bag + bag)
+        self.scan_after(rospy.Time.now())
+        self.assertEqual(self.current("dropped: stamp out of order"), order0)
+
     def test_8_camera_changing_resolution_is_followed(self) -> None:
         size0 = self.current("dropped: image size differs from camera_info")
         changes0 = self.current("camera model changes")
