@@ -58,6 +58,7 @@ class Config:
     floor_max_roll_error: float
     floor_min_pixels: int
     floor_learn_time: float
+    floor_profile_max: float
     num_threads: int
     def __init__(self, **fields: Any) -> None: ...
     @property
@@ -112,6 +113,8 @@ class FloorFit:
     def learned(self) -> PoseCorrection: ...
     @property
     def std(self) -> PoseCorrection: ...
+    @property
+    def profile(self) -> list[tuple[float, float, int]]: ...
 
 class Result:
     @property

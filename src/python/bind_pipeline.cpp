@@ -197,6 +197,17 @@ void bindFloorFit(py::module_& m)
       .def_readonly("learned", &FloorFitResult::learned, "the learned correction after this frame")
       .def_readonly("std", &FloorFitResult::std,
                     "standard deviations of the fitted floor's terms: height [m], pitch and roll slopes [rad]")
+      .def_property_readonly(
+          "profile",
+          [](const FloorFitResult& f) {
+            py::list out;
+            for (int k = 0; k < FloorProfileBands::kBands; ++k)
+              out.append(py::make_tuple((k + 0.5) * FloorProfileBands::kBandWidth, f.profile.bias[k],
+                                        f.profile.samples[k]));
+            return out;
+          },
+          "the floor profile after this frame, per band of the plane's depth: (band centre [m], the learned depth of "
+          "the floor beyond the plane's [m], this frame's floor samples in the band); all 0 while it is off")
       .def("__repr__", [](const FloorFitResult& f) {
         std::ostringstream s;
         s << "FloorFit(reason='" << toString(f.status) << "', pixels=" << f.pixels << ", support=" << f.support
@@ -251,23 +262,45 @@ py::object finiteOrNone(double v) { return std::isfinite(v) ? py::cast(v) : py::
 
 double noneAsNan(const py::handle& v) { return v.is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(v); }
 
+constexpr std::size_t kProfileBands = FloorProfileBands::kBands;
+constexpr std::size_t kFullState = 8 + 2 * kProfileBands;
+
 py::tuple floorState(PyPipeline& self)
 {
   const FloorFit::State s = self.pipe.floorFit().state();
-  return py::make_tuple(s.learned.height, s.learned.pitch, s.learned.roll, finiteOrNone(s.last_stamp),
-                        finiteOrNone(s.weight.height), finiteOrNone(s.weight.pitch), finiteOrNone(s.weight.roll));
+  py::list out;
+  for (const double v : {s.learned.height, s.learned.pitch, s.learned.roll})
+    out.append(v);
+  for (const double v : {s.last_stamp, s.weight.height, s.weight.pitch, s.weight.roll})
+    out.append(finiteOrNone(v));
+  for (std::size_t k = 0; k < kProfileBands; ++k)
+    out.append(static_cast<double>(s.profile.bias[k]));
+  for (std::size_t k = 0; k < kProfileBands; ++k)
+    out.append(static_cast<double>(s.profile.weight[k]));
+  out.append(s.profile.since_learned);
+  return py::tuple(out);
 }
 
 void setFloorState(PyPipeline& self, const py::tuple& t)
 {
-  if (t.size() != 4 && t.size() != 7)
+  if (t.size() != 4 && t.size() != 7 && t.size() != kFullState)
     throw py::value_error("floor_state: expected (height, pitch, roll, last_stamp or None[, the learned correction's "
-                          "weight of height, pitch, roll or None]), got " + std::string(py::repr(t)));
+                          "weight of height, pitch, roll or None[, the floor profile's " +
+                          std::to_string(kProfileBands) + " biases, " + std::to_string(kProfileBands) +
+                          " weights and the time since it learned]]), got " + std::string(py::repr(t)));
   FloorFit::State s;
   s.learned = {py::cast<double>(t[0]), py::cast<double>(t[1]), py::cast<double>(t[2])};
   s.last_stamp = noneAsNan(t[3]);
-  if (t.size() == 7)
+  if (t.size() >= 7)
     s.weight = {noneAsNan(t[4]), noneAsNan(t[5]), noneAsNan(t[6])};
+  s.profile = FloorProfile().bands();
+  if (t.size() == kFullState)
+    for (std::size_t k = 0; k < kProfileBands; ++k)
+    {
+      s.profile.bias[k] = py::cast<float>(t[7 + k]);
+      s.profile.weight[k] = py::cast<float>(t[7 + kProfileBands + k]);
+      s.profile.since_learned = py::cast<double>(t[7 + 2 * kProfileBands]);
+    }
   std::lock_guard<std::mutex> lock(self.mutex);
   self.pipe.restoreFloorFit(s);
 }
@@ -309,8 +342,9 @@ void bindPipelineClass(py::module_& m)
           "The floor refinement's learned correction now (PoseCorrection).")
       .def_property("floor_state", &floorState, &setFloorState,
                     "What the floor refinement carries between frames: (learned height [m], pitch, roll [rad], the "
-                    "last frame's stamp [s] or None, the learned correction's weight per term or None); set it to "
-                    "continue another run exactly (a resumed replay).")
+                    "last frame's stamp [s] or None, the learned correction's weight per term or None, the floor "
+                    "profile's bias [m] and weight per band and the time since it learned [s]); set it to continue another run exactly (a resumed "
+                    "replay).")
       .def_property(
           "config", [](PyPipeline& self) { return self.pipe.config(); },
           [](PyPipeline& self, const Config& c) {

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <iomanip>
 #include <sstream>
 
 #include "kinect_pipeline/ros/kinect_pipeline_ros.h"
@@ -115,6 +116,21 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   }
 }
 
+namespace
+{
+// The learned floor profile as "2.25 m: +1.2 cm, 2.75 m: +2.0 cm" over the bands that hold one ("none" else).
+std::string profileText(const FloorProfileBands& p)
+{
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  for (int k = 0; k < FloorProfileBands::kBands; ++k)
+    if (p.bias[k] != 0.0f)
+      s << (s.tellp() > 0 ? ", " : "") << std::setprecision(2) << (k + 0.5) * FloorProfileBands::kBandWidth
+        << " m: " << std::showpos << std::setprecision(1) << 100.0 * p.bias[k] << std::noshowpos << " cm";
+  return s.tellp() > 0 ? s.str() : "none";
+}
+}  // namespace
+
 void KinectPipelineRos::diagnoseFloor(diagnostic_updater::DiagnosticStatusWrapper& stat)
 {
   std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -143,6 +159,7 @@ void KinectPipelineRos::diagnoseFloor(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("fit shift [t(d)]", f.shift);  // below 0.1: noise, the frame keeps the prior
   addCorrection(stat, "correction", f.applied);
   addCorrection(stat, "learned", f.learned);
+  stat.add("floor profile (band centre: floor beyond the plane)", profileText(f.profile));
   addPose(stat, "told pose", last_prior_);
   addPose(stat, "pose used", last_used_);
   stat.add("to fix the mounting", learned);

@@ -575,6 +575,9 @@ def test_floor_refinement_learns_a_wrong_static_pose_and_serves_whatever_it_does
         r"sits (2[2-9]|3[0-8]) mm lower, looks (0\.[89]\d|1\.[01]\d) deg further down", v["to fix the mounting"]
     ), v
     assert int(v["fits accepted"]) > 0
+    # The floor profile is reported: "none" or the bands that hold one ("2.25 m: +0.3 cm, ...").
+    profile = v["floor profile (band centre: floor beyond the plane)"]
+    assert profile == "none" or re.fullmatch(r"\d+\.\d\d m: [+-]\d+\.\d cm(, \d+\.\d\d m: [+-]\d+\.\d cm)*", profile), v
     # The scans at the learned pose have no phantom obstacles from the floor: against the frames' own truth.
     switch = res["state"]["switched_at"]
     lab = [s for s in res["scans"] if s["stamp"] <= res["sent"][switch - 1]][-5:]

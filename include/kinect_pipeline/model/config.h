@@ -116,6 +116,8 @@ struct Config
   double floor_max_roll_error = 0.035;   ///< largest correction of the roll [rad] (2 deg)
   int floor_min_pixels = 4000;           ///< fewest image pixels on the fitted floor to accept it [px]
   double floor_learn_time = 2.0;         ///< time constant of the learned correction [s]; 0 = learn nothing
+  /// largest height [m] by which the learned floor profile departs from the plane (stages/floor_profile.h); 0 = none
+  double floor_profile_max = 0.025;
 
   int num_threads = 0;  ///< OpenMP threads for one frame; 0 = OpenMP's default
 

@@ -13,6 +13,28 @@ namespace kinect_pipeline
 {
 
 /**
+ * The floor's profile beyond the plane as a lift of the floor offset per ray: a ray of rise R < 0 meets the floor
+ * the sensor sees at depth (floor_h + lift(R)) / -R instead of the plane's floor_h / -R. A table over the frame's
+ * rises, read at the step below (one load, the same bits wherever a ray's rise is the same float).
+ */
+struct FloorLift
+{
+  const float* table = nullptr;  ///< lift [m] per step of rise from lo; nullptr: none (the plane alone)
+  float lo = 0.0f;               ///< the lowest rise of the frame
+  float inv_step = 0.0f;         ///< steps per unit of rise
+  int last = 0;                  ///< the last step
+
+  /** @return the lift [m] on a ray of rise @p rise (table != nullptr). */
+  __attribute__((always_inline)) float at(float rise) const
+  {
+    float i = (rise - lo) * inv_step;
+    i = i < static_cast<float>(last) ? i : static_cast<float>(last);
+    i = i > 0.0f ? i : 0.0f;
+    return table[static_cast<int>(i)];
+  }
+};
+
+/**
  * Predicts the floor and the ceiling plane per pixel, as separable terms.
  *
  * For pixel (u, r) the ray's rise per metre of depth is s(u, r) = col(u) + row(r) (exact geometry:
@@ -45,13 +67,31 @@ public:
   /** @return the ceiling's offset [m]: ceiling_height - sensor_height (exact), ceiling_height (thesis). */
   float ceilingOffset() const { return ceiling_offset_; }
 
-  /** @return predicted floor depth at pixel (u, r) [m], +Inf where the ray never meets the floor. */
+  /**
+   * @brief Sets the floor's profile beyond the plane (stages/floor_fit.h, FloorProfile): the sensor sees the floor
+   *        that the plane puts at depth D at D + bias(D), bias piecewise linear between the centres of bands of
+   *        width band_width [m] (band k: [k, k + 1) band_width), flat beyond the first and last; empty: none.
+   */
+  void setProfile(const float* bias, int bands, float band_width);
+  /** @return the profile as a lift of the floor offset per ray (table nullptr: none). */
+  FloorLift lift() const;
+  /** @return the floor's offset on a ray of rise @p rise: floorOffset() plus the profile's lift. */
+  float floorAt(float rise) const { return lift_.empty() ? floor_offset_ : floor_offset_ + lift().at(rise); }
+
+  /** @return predicted floor depth at pixel (u, r) [m] (plane and profile), +Inf where the ray never meets it. */
   double floorDepth(int u, int r) const;
   /** @return predicted ceiling-plane depth at pixel (u, r) [m], +Inf where the ray never meets it. */
   double ceilingDepth(int u, int r) const;
 
 private:
+  void buildLift();
+
+  static constexpr int kLiftSteps = 256;
   std::vector<float> col_, row_;
+  std::vector<float> bias_;  // the profile per band [m]; empty: none
+  float band_width_ = 0.0f;
+  std::vector<float> lift_;  // kLiftSteps lifts from lift_lo_ (empty: no profile, or no ray meets the floor)
+  float lift_lo_ = 0.0f, lift_inv_step_ = 0.0f;
   float floor_offset_ = 0.0f, ceiling_offset_ = 0.0f;
   bool valid_ = false;
   Camera camera_;

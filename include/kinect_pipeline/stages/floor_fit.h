@@ -19,7 +19,9 @@
 
 #include "kinect_pipeline/model/camera.h"
 #include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/plane_model.h"
 #include "kinect_pipeline/model/threshold_curve.h"
+#include "kinect_pipeline/stages/floor_profile.h"
 #include "kinect_pipeline/types.h"
 
 namespace kinect_pipeline
@@ -62,6 +64,8 @@ struct FloorFitResult
   PoseCorrection std;      ///< the standard deviations of the fitted floor's terms (height [m], slopes [rad])
   PoseCorrection applied;  ///< the pose the frame was processed at minus the prior
   PoseCorrection learned;  ///< the slowly learned correction after this frame (applied to the next prior)
+  /// the floor profile after this frame (FloorFit::learnProfile(); all zero while it is off)
+  FloorProfileBands profile;
 };
 
 /**
@@ -83,7 +87,17 @@ public:
   SensorPose refine(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
                     const SensorPose& prior, double stamp, FloorFitResult& out);
 
-  /** @brief Forgets the learned correction (a jump back in time, a new mounting). */
+  /**
+   * @brief Learns the floor profile (stages/floor_profile.h) from the frame at the pose refine() returned.
+   * @param planes the frame's planes at that pose
+   * @param out out.profile: the profile after this frame
+   */
+  void learnProfile(const cv::Mat& depth, const Config& config, const ThresholdLut& lut, const PlaneModel& planes,
+                    FloorFitResult& out);
+  /** @return the floor profile now. */
+  const FloorProfileBands& profile() const { return profile_.bands(); }
+
+  /** @brief Forgets the learned correction and the floor profile (a jump back in time, a new mounting). */
   void reset();
   /** @return the learned correction now. */
   const PoseCorrection& learned() const { return learned_; }
@@ -96,6 +110,7 @@ public:
     /// the learned correction's weight per term [1/m^2, 1/rad^2]; NaN: none yet (the prior's, 1/bound^2)
     PoseCorrection weight{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
                           std::numeric_limits<double>::quiet_NaN()};
+    FloorProfileBands profile;  ///< the floor profile (its bias and weight per band)
   };
   /** @return the state after the last frame (to continue elsewhere, e.g. a resumed replay). */
   State state() const;
@@ -114,11 +129,6 @@ public:
 
 private:
   struct Plane;
-  /**
-   * Whether sampled pixel u at depth z of a row whose rise term is rz lies on a vertical surface, by the depth z2
-   * of the pixel kGradRows below (rise term rz2); t: t(z) [m].
-   */
-  bool isVertical(int u, float z, float rz, float rz2, float z2, float t) const;
   template <typename T>
   void sample(const cv::Mat& depth, const Camera& camera, const Config& config, const ThresholdLut& lut,
               const SensorPose& prior);
@@ -137,6 +147,8 @@ private:
   bool has_weight_ = false;
   double last_stamp_ = 0.0;
   bool has_stamp_ = false;
+  double last_dt_ = 0.0;  // [s] between the last two frames (learn())
+  FloorProfile profile_;
 };
 
 /**

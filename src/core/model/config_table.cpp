@@ -101,6 +101,8 @@ std::vector<ConfigField> makeTable()
       real("floor_max_roll_error", &C::floor_max_roll_error, 0.0001, 0.5, "rad", "Largest correction of the roll by the floor fit"),
       integer("floor_min_pixels", &C::floor_min_pixels, 1, 100000000, "px", "Fewest image pixels on the fitted floor to accept the fit"),
       real("floor_learn_time", &C::floor_learn_time, 0.0, 3600.0, "s", "Time constant of the learned floor correction; 0 = learn nothing"),
+      real("floor_profile_max", &C::floor_profile_max, 0.0, 0.5, "m",
+           "Largest height by which the learned floor profile (the floor the sensor sees, per band of range) departs from the plane; 0 = none"),
       integer("num_threads", &C::num_threads, 0, 1024, "-", "OpenMP threads for one frame; 0 = OpenMP's default"),
   };
 }

@@ -1,6 +1,7 @@
 // The floor and ceiling predicted per pixel from the pose: the geometry in docs/how_it_works.md, "The steps".
 #include "kinect_pipeline/model/plane_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -49,13 +50,73 @@ bool PlaneModel::update(const Camera& camera, const Config& config, double heigh
     }
     ceiling_offset_ = static_cast<float>(ceiling_);
   }
+  buildLift();
   return true;
+}
+
+void PlaneModel::setProfile(const float* bias, int bands, float band_width)
+{
+  if (bands <= 0)
+  {
+    bias_.clear();
+    lift_.clear();
+    return;
+  }
+  if (!lift_.empty() && band_width == band_width_ && std::equal(bias, bias + bands, bias_.begin(), bias_.end()))
+    return;  // unchanged (the profile learns a few times a second)
+  bias_.assign(bias, bias + bands);  // no allocation once the size is known
+  band_width_ = band_width;
+  buildLift();
+}
+
+namespace
+{
+// The profile's bias at depth D [m]: piecewise linear between the bands' centres, flat beyond.
+float biasAt(const std::vector<float>& bias, float band_width, float depth)
+{
+  const float x = depth / band_width - 0.5f;
+  if (!(x > 0.0f))
+    return bias.front();
+  const int k = static_cast<int>(x);
+  if (k + 1 >= static_cast<int>(bias.size()))
+    return bias.back();
+  const float f = x - static_cast<float>(k);
+  return bias[k] + f * (bias[k + 1] - bias[k]);
+}
+}  // namespace
+
+void PlaneModel::buildLift()
+{
+  lift_.clear();
+  if (bias_.empty() || col_.empty() || row_.empty())
+    return;
+  const float lo = *std::min_element(col_.begin(), col_.end()) + *std::min_element(row_.begin(), row_.end());
+  if (!(lo < 0.0f))
+    return;  // no ray meets the floor
+  lift_lo_ = lo;
+  lift_inv_step_ = kLiftSteps / -lo;
+  lift_.resize(kLiftSteps);
+  for (int i = 0; i < kLiftSteps; ++i)
+  {
+    // The middle of step i: a ray of rise R meets the plane at D = floor_h / -R and the sensed floor bias(D)
+    // farther, floor_h + bias(D) (-R) above its depth's plane point: the lift.
+    const float rise = lo * (1.0f - (static_cast<float>(i) + 0.5f) / kLiftSteps);
+    lift_[i] = -rise * biasAt(bias_, band_width_, floor_offset_ / -rise);
+  }
+}
+
+FloorLift PlaneModel::lift() const
+{
+  if (lift_.empty())
+    return {};
+  return {lift_.data(), lift_lo_, lift_inv_step_, kLiftSteps - 1};
 }
 
 double PlaneModel::floorDepth(int u, int r) const
 {
+  const float rise = col_[u] + row_[r];
   const double s = static_cast<double>(col_[u]) + row_[r];
-  return s < 0.0 ? floor_offset_ / -s : std::numeric_limits<double>::infinity();
+  return s < 0.0 ? floorAt(rise) / -s : std::numeric_limits<double>::infinity();
 }
 
 double PlaneModel::ceilingDepth(int u, int r) const

@@ -335,9 +335,16 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& prior, FrameResul
   }
   const auto t_fit = Clock::now();
   out.pose = floor_fit_.refine(depth, camera_, config_, lut_, prior, stamp, out.floor_fit);
-  out.times.floor_fit = detail::msSince(t_fit);
   if (planes_.update(camera_, config_, out.pose.height, out.pose.pitch, out.pose.roll))
     projector_.setPose(out.pose.pitch, out.pose.roll);
+  if (config_.refine_floor && config_.floor_profile_max > 0.0)
+  {
+    floor_fit_.learnProfile(depth, config_, lut_, planes_, out.floor_fit);
+    planes_.setProfile(floor_fit_.profile().bias.data(), FloorProfile::kBands, FloorProfile::kBandWidth);
+  }
+  else
+    planes_.setProfile(nullptr, 0, 0.0f);
+  out.times.floor_fit = detail::msSince(t_fit);
   out.depth.create(depth.size(), type);
   out.labels.create(depth.size(), CV_8UC1);
   out.times.prepare = detail::msSince(t0);
@@ -372,7 +379,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
   opening.openWhole(depth, threads);
 
   // Stage 2: the rule's terms at this pose, the labelling, the binning of the projection (chosen here, once).
-  const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset()}, planes_.colTerm().data(),
+  const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset(), planes_.lift()}, planes_.colTerm().data(),
                         planes_.rowTerm().data(), &lut_};
   const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, paths_);
   const RowBinner binner(projector_, camera_.width, paths_);
@@ -383,7 +390,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
                             scale,
                             planes_.colTerm().data(),
                             planes_.rowTerm().data(),
-                            CliffRule::at(config_, planes_.floorOffset())};
+                            CliffRule::at(config_, planes_.floorOffset(), CliffRule::kSearchDepth, planes_.lift())};
   Clock::time_point t2 = t1;
   const RowLoop loop =
       projector_.projection() == Projection::kColumn

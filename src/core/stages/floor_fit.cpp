@@ -9,6 +9,7 @@
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/plane_fit.h"
 #include "kinect_pipeline/model/pose.h"
+#include "stages/frame_common.h"
 
 namespace kinect_pipeline
 {
@@ -87,15 +88,6 @@ PoseCorrection minus(const SensorPose& a, const SensorPose& b)
 }
 
 template <typename T>
-float metresOf(T v, float scale)
-{
-  if constexpr (std::is_floating_point_v<T>)
-    return DepthTraits<T>::isNoReturn(DepthTraits<T>::map(v)) ? -1.0f : v;
-  else
-    return v < DepthTraits<T>::kMinValid ? -1.0f : static_cast<float>(v) * scale;
-}
-
-template <typename T>
 float thresholdOf(const ThresholdLut& lut, T v, float z)
 {
   if constexpr (std::is_same_v<T, std::uint8_t>)
@@ -157,19 +149,6 @@ struct FloorFit::Plane
   double roll_shift = 0.0;  // the same of the roll term (c y) alone
 };
 
-bool FloorFit::isVertical(int u, float z, float rz, float rz2, float z2, float t) const
-{
-  if (!(z2 > 0.0f))
-    return false;  // no depth below: no evidence either way
-  // The depth below if the pixel is floor (the plane at its height: h + z R = h + z2 R2), and if it is a vertical
-  // surface: the same horizontal range, so about the same depth (kGradRows rows change a ray's horizontal length by
-  // well under 1 %, the floor's depth by far more wherever the two can be told apart).
-  const float rise = col_z_[u] + rz, rise2 = col_z_[u] + rz2;
-  const float on_floor = rise2 < 0.0f ? z * rise / rise2 : std::numeric_limits<float>::infinity();
-  const float on_wall = z;
-  return std::fabs(on_floor - on_wall) > t && std::fabs(z2 - on_wall) < std::fabs(z2 - on_floor);
-}
-
 template <typename T>
 void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg, const ThresholdLut& lut,
                       const SensorPose& prior)
@@ -213,14 +192,14 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
     for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
     {
       const T v = row[u];
-      const float z = metresOf(v, scale), rise = col_z_[u] + rz;
+      const float z = detail::metresOf(v, scale), rise = col_z_[u] + rz;
       if (!(z > 0.0f && z <= kMaxFitDepth && rise < 0.0f))
         continue;  // unknown, too far, or a ray that never meets the floor
       const float x = z * (col_x_[u] + rx), y = z * (col_y_[u] + ry), e = h + z * rise;
       const float t = thresholdOf(lut, v, z), band = -rise * t;
       if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
         continue;
-      if (below && isVertical(u, z, rz, rz2, metresOf(below[u], scale), t))
+      if (below && looksVertical(z, rise, col_z_[u] + rz2, detail::metresOf(below[u], scale), t))
         continue;
       x_[n] = x;
       y_[n] = y;
@@ -397,6 +376,7 @@ void FloorFit::learn(const FloorFitResult& out, const Config& cfg, double stamp)
     last_stamp_ = stamp;
     has_stamp_ = true;
   }
+  last_dt_ = dt;
   if (!(cfg.floor_learn_time > 0.0))
     return;
   if (!has_weight_)
@@ -455,10 +435,17 @@ SensorPose FloorFit::refine(const cv::Mat& depth, const Camera& camera, const Co
   return pose;
 }
 
+void FloorFit::learnProfile(const cv::Mat& depth, const Config& config, const ThresholdLut& lut,
+                            const PlaneModel& planes, FloorFitResult& out)
+{
+  profile_.learn(depth, config, lut, planes, last_dt_, out.profile);
+}
+
 FloorFit::State FloorFit::state() const
 {
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  return {learned_, has_stamp_ ? last_stamp_ : nan, has_weight_ ? weight_ : PoseCorrection{nan, nan, nan}};
+  return {learned_, has_stamp_ ? last_stamp_ : nan, has_weight_ ? weight_ : PoseCorrection{nan, nan, nan},
+          profile_.bands()};
 }
 
 void FloorFit::restore(const State& s)
@@ -468,6 +455,7 @@ void FloorFit::restore(const State& s)
   weight_ = has_weight_ ? s.weight : PoseCorrection{};
   has_stamp_ = std::isfinite(s.last_stamp);
   last_stamp_ = has_stamp_ ? s.last_stamp : 0.0;
+  profile_.restore(s.profile);
 }
 
 void FloorFit::reset()
@@ -477,6 +465,7 @@ void FloorFit::reset()
   has_weight_ = false;
   has_stamp_ = false;
   last_stamp_ = 0.0;
+  profile_.reset();
 }
 
 }  // namespace kinect_pipeline

@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <limits>
 #include <type_traits>
+
+#include "kinect_pipeline/model/encoding.h"
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -29,6 +31,16 @@ float depthScale(double max_depth)
     return 0.001f;
   else
     return 1.0f;
+}
+
+// A pixel value's depth [m], -1 where it holds no depth (no return, unknown).
+template <typename T>
+float metresOf(T v, float scale)
+{
+  if constexpr (std::is_floating_point_v<T>)
+    return DepthTraits<T>::isNoReturn(DepthTraits<T>::map(v)) ? -1.0f : v;
+  else
+    return v < DepthTraits<T>::kMinValid ? -1.0f : static_cast<float>(v) * scale;
 }
 
 inline int defaultThreads()

@@ -83,6 +83,41 @@ def people_robot(refine: bool = True, exact: bool = False, encoding: str = "16UC
     return worst
 
 
+#: The curved floor's bend [1/m] and where it starts [m]: 5 cm up at 4.4 m (``render_frame(floor_curve=...)``).
+CURVE, CURVE_FROM = 0.006, 1.5
+
+
+def curved_floor_robot(
+    refine: bool = True, profile: bool = True, roll: float = 0.0, encoding: str = "16UC1", frames: int = 20
+) -> Worst:
+    """The RealSense robot's pose (0.63 m, 20 deg down, ``roll`` [deg]) over the lab with a gently curved floor, a
+    Kinect v2's noise and the default sensor model, told the exact pose; ``profile=False``: floor_profile_max 0."""
+    cfg = _core.Config(
+        sensor_height=RS_HEIGHT,
+        sensor_pitch=RS_PITCH,
+        sensor_roll=roll * DEG,
+        ceiling_height=2.0,
+        refine_floor=refine,
+        floor_profile_max=_core.Config().floor_profile_max if profile else 0.0,
+    )
+    pipe = _core.Pipeline(RS_CAM, cfg)
+    worst = Worst()
+    for i in range(frames):
+        fr = render_frame(
+            RS_CAM,
+            lab_scene(),
+            RS_HEIGHT,
+            RS_PITCH,
+            roll * DEG,
+            encoding,
+            seed=i,
+            floor_curve=CURVE,
+            floor_curve_from=CURVE_FROM,
+        )
+        worst.add(pipe.process(fr.depth, stamp=i / 30), fr, _core.kinect_sigma)
+    return worst
+
+
 def shared_realsense_frames(folder: str) -> list[np.ndarray]:
     """The shared real RealSense frames (``realsense_lowcam/depth/*.png``, uint16 mm) under ``folder``."""
     import cv2
@@ -130,6 +165,9 @@ def table(frames: int = 20, show_progress: bool = False, real_folder: str | None
     for exact in (False, True):
         on, off = (people_robot(refine, exact, frames=max(frames, 15)) for refine in (True, False))
         rows.append(("people, Kinect v2 pitching ±6°", "exact" if exact else "4 cm / 0.6° / 0.5° off", on, off))
+    for roll in (0.0, 10.0):
+        on, off = (curved_floor_robot(refine, roll=roll, frames=frames) for refine in (True, False))
+        rows.append((f"gently curved floor (+5 cm at 4.4 m), roll {roll:.0f}°, Kinect v2 noise", "exact", on, off))
     out = [
         "| scene | told pose | refine_floor on (default) | refine_floor off |",
         "|---|---|---|---|",

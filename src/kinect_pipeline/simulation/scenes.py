@@ -174,6 +174,8 @@ def render_frame(
     max_range: float = 8.0,
     flying: float = 0.5,
     stereo: bool = False,
+    floor_curve: float = 0.0,
+    floor_curve_from: float = 1.5,
 ) -> Frame:
     """Renders ``scene`` seen from ``height`` with total ``pitch`` / ``roll`` [rad] and encodes it.
 
@@ -181,7 +183,9 @@ def render_frame(
     ``tof=True`` adds the time-of-flight artefacts: nothing beyond ``max_range`` [m] and flying pixels at depth
     jumps (probability ``flying``). ``stereo=True`` gives an active stereo camera's frame instead of the Kinect's
     noise (``_core.add_stereo_artefacts``: disparity noise and bias, wrong matches, the matching window's smear;
-    ``sigma0``, ``k`` and ``tof`` are then not used).
+    ``sigma0``, ``k`` and ``tof`` are then not used). ``floor_curve`` [1/m] bends the floor: it rises by
+    ``floor_curve * (r - floor_curve_from)^2`` at horizontal range r beyond ``floor_curve_from`` [m] (negative: it
+    falls), a gently curved floor (the truth keeps the plane's labels).
     """
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
@@ -196,6 +200,8 @@ def render_frame(
         ceiling=scene.ceiling,
     )
     metres = truth["depth"]
+    if floor_curve != 0.0:
+        metres = bend_floor(metres, truth, height, floor_curve, floor_curve_from)
     if stereo and seed is not None:
         metres = _core.add_stereo_artefacts(metres, seed, dropout=dropout, max_range=max_range)
         depth = _core.encode_depth(metres, encoding, max_depth)
@@ -206,6 +212,19 @@ def render_frame(
         metres = _core.add_kinect_noise(metres, seed, sigma0, k, dropout)
     depth = _core.encode_depth(metres, encoding, max_depth)
     return Frame(depth=depth, metres=metres, truth=dict(truth), height=height, pitch=pitch, roll=roll)
+
+
+def bend_floor(
+    metres: np.ndarray, truth: dict[str, np.ndarray], height: float, curve: float, start: float
+) -> np.ndarray:
+    """``metres`` with the floor raised by ``curve * (r - start)^2`` at horizontal range r > ``start``: a ray that
+    met the floor plane at depth d, ``height`` below the sensor, meets the raised floor at d (height - rise) /
+    height."""
+    floor = truth["object"] == FLOOR
+    rise = curve * np.maximum(0.0, truth["range"] - start) ** 2
+    out = metres.copy()
+    out[floor] = (metres[floor] * (height - rise[floor]) / height).astype(np.float32)
+    return out
 
 
 kinect_sigma = _core.kinect_sigma

@@ -106,13 +106,13 @@ struct ValueRule
   const std::uint8_t* values;  // 8-bit: 0, 1, ..., 255 (labelled all at once when not monotone); 16-bit: unused
   const float *table, *colc;   // the threshold of each value (ThresholdLut::valueTable); 256 copies of the column term
   float rise_row;
-  PlaneRule rule;
+  PlaneRule rule;  // the row's: its floor offset lifted by the profile, no lift table (ValueLabeller::label)
 
   std::uint8_t operator()(int v) const
   {
     float d;
     bool keep, below;
-    return rule.label(static_cast<T>(v), table[v], colc[0] + rise_row, d, keep, below);
+    return rule.label(static_cast<T>(v), table[v], colc[0] + rise_row, rule.floor_h, d, keep, below);
   }
 };
 
@@ -241,7 +241,7 @@ bool scanSplit(const ValueRule<std::uint8_t>& label, int lo, int hi, std::uint8_
                ValueSplit& out)
 {
   const int n = hi - lo + 1;
-  classifyRow<std::uint8_t, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
+  classifyRow<std::uint8_t, false, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
                                    label.rule, n, lab, dst, nullptr);
   int i = 0;
   while (i < n && lab[i] == kKept)
@@ -560,9 +560,20 @@ bool ValueLabeller<T>::label(int r, const T* src, const T* in, int w, std::uint8
   // values would be these, clamped to them (the labels are monotone in the value), and the rescue looks at raw
   // values, which may lie above the opened row's.
   const float* table = f_.lut->valueTable();
-  const ValueRule<T> rule{values_.data(), table, colc_.data(), f_.row[r], f_.rule};
+  // With a floor profile the row's one rise has one floor offset: the row's rule and proof take it.
+  PlaneRule row_rule = f_.rule;
+  ValueProof lifted;
+  const ValueProof* proof = &proof_;
+  if (f_.rule.lift.table)
+  {
+    row_rule.floor_h = f_.rule.floorAt(colc_[0] + f_.row[r]);
+    row_rule.lift = {};
+    lifted.build(terms_, row_rule.floor_h, row_rule.ceil_h);
+    proof = &lifted;
+  }
+  const ValueRule<T> rule{values_.data(), table, colc_.data(), f_.row[r], row_rule};
   ValueSplit split;
-  if (!splitValues<T>(rule, proof_, 0, Tr::kNoReturn - 1, buf.vlab, buf.vdst, split))
+  if (!splitValues<T>(rule, *proof, 0, Tr::kNoReturn - 1, buf.vlab, buf.vdst, split))
     return false;
   // The raw values the rescue may relabel are t1 and above; moveBand(t(raw)) >= moveBand(t(t1)) where the table
   // does not decrease.

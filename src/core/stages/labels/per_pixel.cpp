@@ -10,8 +10,9 @@ namespace kinect_pipeline
 {
 namespace detail
 {
-// Branch-free, with restrict pointers, so that the compiler vectorises it.
-template <typename T, bool kRescue>
+// Branch-free, with restrict pointers, so that the compiler vectorises it. kLift: the rule has a floor profile (a
+// load per pixel).
+template <typename T, bool kRescue, bool kLift>
 KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
                                 const float* __restrict col, float rise_row, PlaneRule rule, int w,
                                 std::uint8_t* __restrict lab, T* __restrict dst, std::uint8_t* __restrict cand)
@@ -24,7 +25,9 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
     const T v = src[u];
     float d;
     bool keep, below;
-    const std::uint8_t l = rule.label(v, t[u], col[u] + rise_row, d, keep, below);
+    const float rise = col[u] + rise_row;
+    const float fh = kLift ? rule.floor_h + rule.lift.at(rise) : rule.floor_h;
+    const std::uint8_t l = rule.label(v, t[u], rise, fh, d, keep, below);
     lab[u] = l;
     dst[u] = keep ? v : removed;
     if constexpr (kRescue)
@@ -104,18 +107,27 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
                           float* t, std::uint8_t* cand)
 {
   thresholdRow<T>(src, *f.lut, f.rule.scale, w, t);
-  RowCounts c = in ? classifyRow<T, true>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
-                   : classifyRow<T, false>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+  RowCounts c;
+  if (f.rule.lift.table)
+    c = in ? classifyRow<T, true, true>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
+           : classifyRow<T, false, true>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+  else
+    c = in ? classifyRow<T, true, false>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
+           : classifyRow<T, false, false>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
   if (c.candidates > 0)
     rescueRow<T>(f, r, cand, in, src, w, lab, dst, c);
   return c;
 }
 
 #define KP_INSTANTIATE(T)                                                                                            \
-  template RowCounts classifyRow<T, true>(const T*, const T*, const float*, const float*, float, PlaneRule, int,   \
-                                          std::uint8_t*, T*, std::uint8_t*);                                       \
-  template RowCounts classifyRow<T, false>(const T*, const T*, const float*, const float*, float, PlaneRule, int,  \
-                                           std::uint8_t*, T*, std::uint8_t*);                                      \
+  template RowCounts classifyRow<T, true, false>(const T*, const T*, const float*, const float*, float, PlaneRule,  \
+                                                 int, std::uint8_t*, T*, std::uint8_t*);                            \
+  template RowCounts classifyRow<T, false, false>(const T*, const T*, const float*, const float*, float, PlaneRule, \
+                                                  int, std::uint8_t*, T*, std::uint8_t*);                           \
+  template RowCounts classifyRow<T, true, true>(const T*, const T*, const float*, const float*, float, PlaneRule,   \
+                                                int, std::uint8_t*, T*, std::uint8_t*);                             \
+  template RowCounts classifyRow<T, false, true>(const T*, const T*, const float*, const float*, float, PlaneRule,  \
+                                                 int, std::uint8_t*, T*, std::uint8_t*);                            \
   template void rescueRow<T>(const RuleTerms&, int, const std::uint8_t*, const T*, const T*, int, std::uint8_t*, T*, \
                              RowCounts&);                                                                           \
   template RowCounts labelRowByPixel<T>(const RuleTerms&, int, const T*, const T*, int, std::uint8_t*, T*, float*,  \

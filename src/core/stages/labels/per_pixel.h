@@ -24,9 +24,10 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
  * The labels of a row's pixels by the rule (PlaneRule::label), each with its threshold t[u] and rise col[u] +
  * rise_row, and (kRescue) in cand the flags of the pixels the rescue may relabel: kept or below the floor, with a
  * raw value in[u] (unmapped) that the opening moved nearer by more than moveBand(t[u]), a superset of those it
- * relabels (t(raw) >= t(opened): the table is non-decreasing). Without kRescue, in and cand are not used.
+ * relabels (t(raw) >= t(opened): the table is non-decreasing). Without kRescue, in and cand are not used. kLift: the
+ * floor offset of each pixel is rule.floorAt(its rise) (a floor profile); else rule.floor_h.
  */
-template <typename T, bool kRescue>
+template <typename T, bool kRescue, bool kLift>
 RowCounts classifyRow(const T* src, const T* in, const float* t, const float* col, float rise_row, PlaneRule rule,
                       int w, std::uint8_t* lab, T* dst, std::uint8_t* cand);
 

@@ -7,6 +7,7 @@
 #include <type_traits>
 
 #include "kinect_pipeline/model/encoding.h"
+#include "kinect_pipeline/model/plane_model.h"
 #include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/types.h"
 
@@ -17,7 +18,8 @@ namespace detail
 /**
  * The plane removal of one pixel. A pixel at depth d [m] whose ray rises by R metres per metre of depth
  * (PlaneModel: col[u] + row[r]; R < 0: the ray goes down) lies e = d R above the sensor and e + floor_h above the
- * floor; t = t(d) is the noise threshold of its value. Exclusive classes, in this order:
+ * floor (floor_h: floorAt(R), the plane's offset lifted by the floor's profile where one is learned); t = t(d) is
+ * the noise threshold of its value. Exclusive classes, in this order:
  *   no return                              kInvalid
  *   e > ceil_h                             kAboveCeiling (beyond the ceiling plane)
  *   R < 0 and e + floor_h < farBand(t) R   kBelowFloor   (more than farBand(t) beyond the floor: a hole, a stair)
@@ -28,9 +30,16 @@ namespace detail
  */
 struct PlaneRule
 {
-  float scale;    ///< metres per unit of the encoding
-  float floor_h;  ///< PlaneModel::floorOffset()
-  float ceil_h;   ///< PlaneModel::ceilingOffset()
+  float scale;     ///< metres per unit of the encoding
+  float floor_h;   ///< PlaneModel::floorOffset()
+  float ceil_h;    ///< PlaneModel::ceilingOffset()
+  FloorLift lift;  ///< PlaneModel::lift(): the floor's profile beyond the plane (table nullptr: none)
+
+  /** @return the floor's offset on a ray of rise R: floor_h plus the profile's lift (PlaneModel::floorAt()). */
+  __attribute__((always_inline)) float floorAt(float rise) const
+  {
+    return lift.table ? floor_h + lift.at(rise) : floor_h;
+  }
 
   /// How far beyond the floor a pixel is still floor [m], at threshold t.
   static float farBand(float t) { return t; }
@@ -50,17 +59,18 @@ struct PlaneRule
   }
 
   /**
-   * @return the label of a pixel of (mapped) value v with threshold t and rise R; d its depth, keep whether it is
-   * kept, below whether it is below the floor. Branch-free (exclusive masks combined arithmetically: a select chain
-   * would not vectorise); outputs by reference, as a returned struct stops the vectoriser.
+   * @return the label of a pixel of (mapped) value v with threshold t and rise R, on a ray whose floor offset is
+   * fh (floorAt(R)); d its depth, keep whether it is kept, below whether it is below the floor. Branch-free
+   * (exclusive masks combined arithmetically: a select chain would not vectorise); outputs by reference, as a
+   * returned struct stops the vectoriser.
    */
   template <typename T>
-  __attribute__((always_inline)) std::uint8_t label(T v, float t, float rise, float& d, bool& keep,
+  __attribute__((always_inline)) std::uint8_t label(T v, float t, float rise, float fh, float& d, bool& keep,
                                                     bool& below) const
   {
     d = static_cast<float>(v) * scale;
     const float e = d * rise;
-    const float above = e + floor_h;        // height above the floor (exact geometry)
+    const float above = e + fh;             // height above the floor (exact geometry)
     const float far = farBand(t) * rise;    // -farBand(t) |R| where the ray goes down
     const float near = nearBand(t) * rise;  // -nearBand(t) |R|
     const bool down = rise < 0.0f;
@@ -93,7 +103,7 @@ struct PlaneRule
       return kKept;
     const float d = static_cast<float>(raw) * scale;
     const float e = d * rise;
-    const float above = e + floor_h;
+    const float above = e + floorAt(rise);
     if (e > ceil_h)
       return kAboveCeiling;
     if (rise < 0.0f && above < -(nearBand(t_raw) * rise) && above > farBand(t_raw) * rise)

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/plane_model.h"
 #include "kinect_pipeline/model/threshold_curve.h"
 
 namespace kinect_pipeline
@@ -36,6 +37,7 @@ struct CliffRule
   float min_drop = 0.0f;                                    ///< Config::cliff_min_drop [m]
   float floor_h = 0.0f;                                     ///< the sensor's height above the floor [m]
   float max_depth = std::numeric_limits<float>::infinity();  ///< [m]
+  FloorLift lift;  ///< the floor's profile (PlaneModel::lift()): drops are measured from the floor the sensor sees
 
   /**
    * The rule at a frame's height: max_depth, the far end of the first range of depths (from the sensor out, up to
@@ -43,11 +45,12 @@ struct CliffRule
    * outside its control points: so is f = d k - t). Only the first: beyond a curve's last point its threshold stays
    * constant while a real sensor's noise keeps growing.
    */
-  static CliffRule at(const Config& config, float floor_h, double max_range = kSearchDepth)
+  static CliffRule at(const Config& config, float floor_h, double max_range = kSearchDepth, FloorLift lift = {})
   {
     CliffRule c;
     c.min_drop = static_cast<float>(config.cliff_min_drop);
     c.floor_h = floor_h;
+    c.lift = lift;
     if (!(c.min_drop > 0.0f))
       return c;
     const double k = config.cliff_min_drop / (floor_h + config.cliff_min_drop);
@@ -81,7 +84,11 @@ struct CliffRule
   }
 
   /** @return whether a below-floor pixel at depth d [m] on a ray of rise R is cliff evidence. */
-  bool evidence(float d, float rise) const { return !(min_drop > 0.0f) || (d <= max_depth && d * rise + floor_h < -min_drop); }
+  bool evidence(float d, float rise) const
+  {
+    const float fh = lift.table ? floor_h + lift.at(rise) : floor_h;
+    return !(min_drop > 0.0f) || (d <= max_depth && d * rise + fh < -min_drop);
+  }
 
   /** @return whether a beam's cliff at range cliff [m] is hidden by its nearest obstacle at range obstacle [m]. */
   bool hidden(float cliff, float obstacle, const std::vector<CurvePoint>& curve) const
