@@ -26,14 +26,6 @@
 namespace kinect_pipeline
 {
 
-/**
- * @return whether a pixel at depth z [m] on a ray of rise R lies on a vertical surface rather than on the floor,
- * from the depth z2 of the pixel a few rows below it (rise R2): on the floor that pixel sees the same plane farther
- * along another ray (z R / R2), on a vertical surface (a leg, a foot, a wall's base) about the same range. True
- * where the two predictions differ by more than t (t(z) [m]) and z2 is nearer the vertical one; false without z2.
- */
-bool looksVertical(float z, float rise, float rise2, float z2, float t);
-
 /** The floor profile after one frame (FloorFitResult::profile). */
 struct FloorProfileBands
 {

@@ -9,6 +9,7 @@
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/plane_fit.h"
 #include "kinect_pipeline/model/pose.h"
+#include "stages/floor_sampling.h"
 #include "stages/frame_common.h"
 
 namespace kinect_pipeline
@@ -20,7 +21,6 @@ constexpr double kHalfPi = 1.57079632679489661923;
 // fraction of a millimetre at a few microseconds.
 constexpr double kSamples = 2500.0;
 constexpr int kRowStep = 2;
-constexpr double kGolden = 0.6180339887498949;
 // Farther pixels are not sampled: the depth noise and the band of pose uncertainty both grow with distance.
 constexpr float kMaxFitDepth = 4.0f;
 // The fit's noise scale of a pixel is band / kBandSigmas: t(d) is about 4.5 sigma + 2 cm for the default curve.
@@ -55,11 +55,6 @@ constexpr double kMinShift = 0.1;
 constexpr double kHardBound = 2.0;
 constexpr double kBeyondPixels = 2.0;
 constexpr double kBeyondGain = 1.5;
-// A sampled pixel is checked against the pixel kGradRows rows below it in the image: on the floor, the depth there
-// is the floor's (the same plane, another ray); on a vertical surface (a leg, a foot, a table leg, a wall's base),
-// about the same horizontal range. Where the two predictions differ by more than t(d) and the vertical one is the
-// nearer, the pixel is not floor.
-constexpr int kGradRows = 4;
 constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
 constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
 
@@ -153,11 +148,10 @@ template <typename T>
 void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg, const ThresholdLut& lut,
                       const SensorPose& prior)
 {
-  // Every kRowStep-th row, each at columns col_step apart from an offset that moves on by the golden ratio from
-  // row to row: all rows take part (without roll the floor has one depth per row, so the rows are the independent
-  // samples of an integer encoding's rounding) and the columns are covered evenly.
-  const int rows = (cam.height + kRowStep - 1) / kRowStep;
-  col_step_ = std::max(1, static_cast<int>(rows * static_cast<double>(cam.width) / kSamples));
+  // The sampling grid (stages/floor_sampling.h).
+  const detail::SampleGrid grid(cam.width, cam.height, kRowStep, kSamples);
+  const int rows = grid.rows(cam.height);
+  col_step_ = grid.col_step;
   const std::size_t capacity = static_cast<std::size_t>(rows) * (cam.width / col_step_ + 1) + kLanes;
   for (auto* v : {&x_, &y_, &e_, &band_, &inv_sigma_, &range2_})
     v->resize(capacity);  // once per camera: never reallocates after the first frame
@@ -186,10 +180,10 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
     const float rx = static_cast<float>(m[1] * yn + m[2]), ry = static_cast<float>(m[4] * yn + m[5]),
                 rz = static_cast<float>(m[7] * yn + m[8]);
     const T* row = depth.ptr<T>(r);
-    const int r2 = r + kGradRows;  // the row the column's depth gradient is read against
+    const int r2 = r + detail::kGradRows;  // the row the column's depth gradient is read against
     const T* below = r2 < cam.height ? depth.ptr<T>(r2) : nullptr;
     const float rz2 = static_cast<float>(m[7] * ((r2 - cam.cy) / cam.fy) + m[8]);
-    for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step_); u < cam.width; u += col_step_)
+    for (int u = grid.firstColumn(k); u < cam.width; u += col_step_)
     {
       const T v = row[u];
       const float z = detail::metresOf(v, scale), rise = col_z_[u] + rz;
@@ -199,7 +193,7 @@ void FloorFit::sample(const cv::Mat& depth, const Camera& cam, const Config& cfg
       const float t = thresholdOf(lut, v, z), band = -rise * t;
       if (!(std::fabs(e) <= dh + std::fabs(x) * dp + std::fabs(y) * dr + band))
         continue;
-      if (below && looksVertical(z, rise, col_z_[u] + rz2, detail::metresOf(below[u], scale), t))
+      if (below && detail::looksVertical(z, rise, col_z_[u] + rz2, detail::metresOf(below[u], scale), t))
         continue;
       x_[n] = x;
       y_[n] = y;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "stages/floor_sampling.h"
 #include "stages/frame_common.h"
 #include "stages/labels/rule.h"
 
@@ -12,28 +13,15 @@ namespace kinect_pipeline
 {
 namespace
 {
-// Pixels sampled per frame, about: every kRowStep-th row, columns col_step apart from an offset that moves on by the
-// golden ratio from row to row (as the floor fit samples).
+// Pixels sampled per frame, about, on the floor fit's grid (stages/floor_sampling.h) with every kRowStep-th row.
 constexpr double kSamples = 2000.0;
 constexpr int kRowStep = 4;
-constexpr double kGolden = 0.6180339887498949;
 // A band learns from a frame only with this many floor samples (fewer give no median worth the name), and only
 // when they are at least this fraction of the band's pixels with a depth: a band that mostly shows what stands on
 // the floor (a wall, furniture) shows too little floor to tell its bias from the base of those.
 constexpr int kMinSamples = 20;
 constexpr double kMinFloorFraction = 0.5;
-// The pixel this many rows below a sample tells a vertical surface from the floor (looksVertical()).
-constexpr int kGradRows = 4;
 }  // namespace
-
-bool looksVertical(float z, float rise, float rise2, float z2, float t)
-{
-  if (!(z2 > 0.0f))
-    return false;  // no depth below: no evidence either way
-  const float on_floor = rise2 < 0.0f ? z * rise / rise2 : std::numeric_limits<float>::infinity();
-  const float on_wall = z;
-  return std::fabs(on_floor - on_wall) > t && std::fabs(z2 - on_wall) < std::fabs(z2 - on_floor);
-}
 
 FloorProfileBands FloorProfile::initial()
 {
@@ -51,8 +39,8 @@ template <typename T>
 void FloorProfile::sample(const cv::Mat& depth, const Config& cfg, const ThresholdLut& lut, const PlaneModel& planes)
 {
   const int w = depth.cols, h_rows = depth.rows;
-  const int rows = (h_rows + kRowStep - 1) / kRowStep;
-  const int col_step = std::max(1, static_cast<int>(rows * static_cast<double>(w) / kSamples));
+  const detail::SampleGrid grid(w, h_rows, kRowStep, kSamples);
+  const int rows = grid.rows(h_rows), col_step = grid.col_step;
   const std::size_t capacity = static_cast<std::size_t>(rows) * (w / col_step + 1);
   for (auto* v : {&residual_, &sorted_})
     v->resize(capacity);  // once per camera
@@ -65,10 +53,10 @@ void FloorProfile::sample(const cv::Mat& depth, const Config& cfg, const Thresho
   int n = 0;
   for (int k = 0; k < rows; ++k)
   {
-    const int r = k * kRowStep, r2 = r + kGradRows;
+    const int r = k * kRowStep, r2 = r + detail::kGradRows;
     const T* row = depth.ptr<T>(r);
     const T* below = r2 < h_rows ? depth.ptr<T>(r2) : nullptr;
-    for (int u = static_cast<int>(std::fmod(k * kGolden, 1.0) * col_step); u < w; u += col_step)
+    for (int u = grid.firstColumn(k); u < w; u += col_step)
     {
       const float z = detail::metresOf(row[u], scale), rise = col[u] + row_term[r];
       if (!(z > 0.0f && rise < 0.0f))
@@ -84,7 +72,7 @@ void FloorProfile::sample(const cv::Mat& depth, const Config& cfg, const Thresho
       if (!(std::fabs(planes.floorAt(rise) + z * rise) <= bound))
         continue;
       const float t = detail::thresholdOf(lut, row[u], scale);
-      if (below && looksVertical(z, rise, col[u] + row_term[r2], detail::metresOf(below[u], scale), t))
+      if (below && detail::looksVertical(z, rise, col[u] + row_term[r2], detail::metresOf(below[u], scale), t))
         continue;
       residual_[n] = z - plane;
       band_[n] = static_cast<std::uint8_t>(band);

@@ -176,6 +176,7 @@ def render_frame(
     stereo: bool = False,
     floor_curve: float = 0.0,
     floor_curve_from: float = 1.5,
+    multipath: float = 0.0,
 ) -> Frame:
     """Renders ``scene`` seen from ``height`` with total ``pitch`` / ``roll`` [rad] and encodes it.
 
@@ -185,7 +186,9 @@ def render_frame(
     noise (``_core.add_stereo_artefacts``: disparity noise and bias, wrong matches, the matching window's smear;
     ``sigma0``, ``k`` and ``tof`` are then not used). ``floor_curve`` [1/m] bends the floor: it rises by
     ``floor_curve * (r - floor_curve_from)^2`` at horizontal range r beyond ``floor_curve_from`` [m] (negative: it
-    falls), a gently curved floor (the truth keeps the plane's labels).
+    falls), a gently curved floor (the truth keeps the plane's labels). ``multipath`` [m] (with ``tof``): a
+    time-of-flight camera's multipath before floor-wall corners, the floor seen up to that much farther
+    (``add_multipath``).
     """
     if encoding not in ENCODINGS:
         raise ValueError(f"encoding {encoding!r}: expected one of {', '.join(ENCODINGS)}")
@@ -207,6 +210,8 @@ def render_frame(
         depth = _core.encode_depth(metres, encoding, max_depth)
         return Frame(depth=depth, metres=metres, truth=dict(truth), height=height, pitch=pitch, roll=roll)
     if tof:
+        if multipath > 0.0:
+            metres = add_multipath(metres, truth, multipath)
         metres = _core.add_tof_artefacts(metres, 0 if seed is None else seed + 7919, max_range, flying)
     if seed is not None:
         metres = _core.add_kinect_noise(metres, seed, sigma0, k, dropout)
@@ -225,6 +230,25 @@ def bend_floor(
     out = metres.copy()
     out[floor] = (metres[floor] * (height - rise[floor]) / height).astype(np.float32)
     return out
+
+
+def add_multipath(
+    metres: np.ndarray, truth: dict[str, np.ndarray], amplitude: float, reach: float = 0.25
+) -> np.ndarray:
+    """``metres`` with a time-of-flight camera's multipath: light from the floor also reaches the sensor by way of
+    the wall behind it, so the floor before a wall is seen farther, by ``amplitude * exp(-g / reach)`` of range
+    [m] at a gap g [m] between the floor point and the surface above it in the image (a box, a wall)."""
+    obj, rng = truth["object"], truth["range"]
+    out = metres.copy()
+    above = np.full(obj.shape[1], np.inf)  # per column, the range of the last solid surface seen going down
+    for r in range(obj.shape[0]):
+        solid = obj[r] >= FIRST_BOX
+        above = np.where(solid, rng[r], above)
+        floor = (obj[r] == FLOOR) & np.isfinite(above) & (rng[r] > 0)
+        gap = np.maximum(above - rng[r], 0.0)
+        extra = amplitude * np.exp(-gap / reach)
+        out[r] = np.where(floor, metres[r] * (1.0 + extra / np.where(floor, rng[r], 1.0)), metres[r])
+    return out.astype(np.float32)
 
 
 kinect_sigma = _core.kinect_sigma
