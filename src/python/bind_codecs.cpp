@@ -106,15 +106,16 @@ void bindCompressedDepth(py::module_& m)
         cv::Mat depth;
         {
           py::gil_scoped_release release;
-          depth = decodeCompressedDepth(f, static_cast<const std::uint8_t*>(bytes.ptr),
-                                        static_cast<std::size_t>(bytes.size), expected);
+          depth = decodeDepthImage(f, static_cast<const std::uint8_t*>(bytes.ptr), static_cast<std::size_t>(bytes.size),
+                                   expected);
         }
         return matToArray(depth);
       },
       py::arg("format"), py::arg("data"), py::arg("expected_shape") = py::none(),
-      "A compressedDepth CompressedImage (its format and data: bytes or a uint8 array) as a depth image: uint16 [mm, "
-      "0 unknown] for 16UC1, float32 [m, NaN unknown] for 32FC1. Formats: '<16UC1|32FC1>; compressedDepth [png|rvl]'. "
-      "expected_shape (height, width) refuses other sizes. Raises ValueError naming what is wrong with the payload.");
+      "A depth CompressedImage (its format and data: bytes or a uint8 array) as a depth image: uint16 [mm, 0 "
+      "unknown] for 16UC1, float32 [m, NaN unknown] for 32FC1. Formats: '<16UC1|32FC1>; compressedDepth [png|rvl]' "
+      "and image_transport's compressed PNG of 16-bit depth, '<16UC1|mono16>; png compressed'. expected_shape "
+      "(height, width) refuses other sizes. Raises ValueError naming what is wrong with the format or the payload.");
   const CompressedDepthOptions defaults;
   m.def(
       "encode_compressed_depth",

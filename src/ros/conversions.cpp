@@ -32,22 +32,7 @@ Camera cameraFromInfo(const sensor_msgs::CameraInfo& info)
 
 cv::Mat depthFromCompressed(const sensor_msgs::CompressedImage& image, cv::Size expected)
 {
-  const std::string& format = image.format;
-  if (format.find("compressedDepth") != std::string::npos || format.find(';') == std::string::npos)
-    return decodeCompressedDepth(format, image.data, expected);
-  // compressed_image_transport writes "<encoding>; <png|jpeg> compressed [<target encoding>]".
-  std::istringstream words(format.substr(format.find(';') + 1));
-  std::string encoding = format.substr(0, format.find(';')), codec, compressed;
-  encoding.erase(0, encoding.find_first_not_of(' '));
-  encoding.erase(encoding.find_last_not_of(' ') + 1);
-  words >> codec >> compressed;
-  if (compressed == "compressed" && codec == "png" && (encoding == "16UC1" || encoding == "mono16"))
-    return decodeCompressedDepth("16UC1; compressedDepth png", image.data, expected);  // a bare 16-bit PNG
-  throw std::invalid_argument("CompressedImage format '" + format +
-                              "': not a depth format this node reads; supported: '16UC1; png compressed' or "
-                              "'mono16; png compressed' (compressed_image_transport's PNG of 16-bit depth, "
-                              "~image_transport compressed) and compressedDepth ('16UC1; compressedDepth png', "
-                              "'... rvl', '32FC1; compressedDepth ...', ~image_transport compressedDepth)");
+  return decodeDepthImage(image.format, image.data.data(), image.data.size(), expected);
 }
 
 bool isSupportedEncoding(const std::string& e)

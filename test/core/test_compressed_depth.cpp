@@ -155,6 +155,25 @@ TEST(CompressedDepthFormat, RefusesOthersNamingThem)
   expectInvalid([] { depthCodecFromString("zstd"); }, {"'zstd'", "png or rvl"});
 }
 
+// A CompressedImage of depth of either transport: compressedDepth as decodeCompressedDepth, and the compressed
+// transport's PNG of 16-bit depth; other compressed images named with what is read.
+TEST(DepthImage, BothTransportsAreReadAndOthersNamed)
+{
+  cv::Mat mm(3, 5, CV_16UC1);
+  for (int k = 0; k < 15; ++k)
+    mm.at<std::uint16_t>(k / 5, k % 5) = static_cast<std::uint16_t>(400 + 131 * k);
+  std::vector<std::uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", mm, png));
+  for (const char* format : {"16UC1; png compressed", "mono16; png compressed", " 16UC1 ;  png  compressed "})
+    EXPECT_EQ(cv::norm(decodeDepthImage(format, png.data(), png.size()), mm, cv::NORM_INF), 0.0) << format;
+  const CompressedDepth c = encodeCompressedDepth(mm, {});
+  EXPECT_EQ(cv::norm(decodeDepthImage(c.format, c.data.data(), c.data.size()), mm, cv::NORM_INF), 0.0);
+  expectInvalid([&] { decodeDepthImage("mono8; jpeg compressed", png.data(), png.size()); },
+                {"'mono8; jpeg compressed'", "not a depth image", "'16UC1; png compressed'", "compressedDepth png"});
+  expectInvalid([&] { decodeDepthImage("16UC1; jpeg compressed", png.data(), png.size()); }, {"not a depth image"});
+  expectInvalid([&] { decodeDepthImage("16UC1; compressedDepth jpeg", png.data(), png.size()); }, {"'jpeg'"});
+}
+
 // ---------------------------------------------------------------- round trips
 
 TEST(CompressedDepth, Millimetres16RoundTripExactlyInBothCodecs)

@@ -123,10 +123,16 @@ def test_expected_shape() -> None:
         kp.decode_compressed_depth(fmt, data, expected_shape=(0, 4))
 
 
+def test_image_transports_compressed_png_of_16_bit_depth_is_read() -> None:
+    mm = random_mm((6, 9), 3)
+    for fmt in ("16UC1; png compressed", " mono16 ; png compressed "):
+        np.testing.assert_array_equal(kp.decode_compressed_depth(fmt, png(mm)), mm)
+
+
 @pytest.mark.parametrize(
     ("fmt", "data", "match"),
     [
-        ("16UC1; png compressed", header() + b"x", r"'16UC1; png compressed'.*'png compressed'"),
+        ("mono8; jpeg compressed", b"x", r"'mono8; jpeg compressed': not a depth image this package reads; it reads"),
         ("8UC1; compressedDepth", header() + b"x", r"encoding '8UC1': expected 16UC1, mono16 or 32FC1"),
         ("16UC1; compressedDepth jpeg", header() + b"x", r"codec 'jpeg': expected png or rvl"),
         ("16UC1; compressedDepth", b"\0" * 5, r"5 bytes: shorter than its 12-byte header"),

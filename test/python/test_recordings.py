@@ -183,8 +183,8 @@ def test_a_compressed_format_that_is_not_depth_is_named_with_what_is_read(tmp_pa
         "/spot/camera/frontleft/image/compressed",
     )
     assert r.returncode == 1
-    assert "'mono8; jpeg compressed': not a depth image the tools read" in r.stderr, r.stderr
-    assert "16UC1 / mono16; png compressed" in r.stderr and "compressedDepth" in r.stderr
+    assert "'mono8; jpeg compressed ': not a depth image this package reads" in r.stderr, r.stderr
+    assert "'16UC1; png compressed' and 'mono16; png compressed'" in r.stderr and "compressedDepth" in r.stderr
 
 
 # -- row 3: folders of colour and depth frames ---------------------------------------------------------------------

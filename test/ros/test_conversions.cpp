@@ -438,9 +438,9 @@ TEST(Conversions, PngCompressedSixteenBitDepthIsDecodedAndOtherFormatsNamed)
   EXPECT_EQ(cv::norm(depthFromCompressed(msg, cv::Size()), depth, cv::NORM_INF), 0.0);
   msg.format = "16UC1; jpeg compressed ";
   std::string m = message([&] { depthFromCompressed(msg, cv::Size()); });
-  EXPECT_NE(m.find("'16UC1; jpeg compressed ': not a depth format this node reads; supported: '16UC1; png compressed'"),
+  EXPECT_NE(m.find("'16UC1; jpeg compressed ': not a depth image this package reads; it reads '16UC1; png compressed'"),
             std::string::npos)
       << m;
   msg.format = "bgr8; jpeg compressed bgr8";
-  EXPECT_NE(message([&] { depthFromCompressed(msg, cv::Size()); }).find("not a depth format"), std::string::npos);
+  EXPECT_NE(message([&] { depthFromCompressed(msg, cv::Size()); }).find("not a depth image"), std::string::npos);
 }

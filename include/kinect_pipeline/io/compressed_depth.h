@@ -103,6 +103,17 @@ cv::Mat decodeCompressedDepth(const std::string& format, const std::uint8_t* dat
 cv::Mat decodeCompressedDepth(const std::string& format, const std::vector<std::uint8_t>& data,
                               cv::Size expected = cv::Size());
 
+/**
+ * @brief Decodes a CompressedImage of depth of either of image_transport's transports: compressedDepth as
+ *        decodeCompressedDepth() (a format with "compressedDepth", or without ';'), and compressed_image_transport's
+ *        lossless PNG of 16-bit depth, "16UC1; png compressed" or "mono16; png compressed" (spaces around the parts
+ *        ignored), as the bare 16-bit PNG it is (CV_16UC1 mm). JPEG, 8-bit and colour are no depth.
+ * @throw std::invalid_argument naming @p format and the formats read where it is neither; else as
+ *        decodeCompressedDepth()
+ */
+cv::Mat decodeDepthImage(const std::string& format, const std::uint8_t* data, std::size_t size,
+                         cv::Size expected = cv::Size());
+
 /** compressed_depth_image_transport's publisher parameters, with its defaults. */
 struct CompressedDepthOptions
 {

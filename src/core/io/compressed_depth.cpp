@@ -498,6 +498,33 @@ cv::Mat decodeCompressedDepth(const std::string& format, const std::vector<std::
   return decodeCompressedDepth(format, data.data(), data.size(), expected);
 }
 
+namespace
+{
+// compressed_image_transport's "<encoding>; <codec> compressed [<target>]" of a lossless 16-bit depth PNG.
+bool isPngCompressedDepth(const std::string& format)
+{
+  const std::size_t semicolon = format.find(';');
+  if (semicolon == std::string::npos)
+    return false;
+  const std::string encoding = trim(format.substr(0, semicolon));
+  std::istringstream words(format.substr(semicolon + 1));
+  std::string codec, compressed;
+  words >> codec >> compressed;
+  return compressed == "compressed" && codec == "png" && (encoding == "16UC1" || encoding == "mono16");
+}
+}  // namespace
+
+cv::Mat decodeDepthImage(const std::string& format, const std::uint8_t* data, std::size_t size, cv::Size expected)
+{
+  if (isPngCompressedDepth(format))
+    return decodeCompressedDepth("16UC1; compressedDepth png", data, size, expected);  // a bare 16-bit PNG
+  if (format.find("compressedDepth") != std::string::npos || format.find(';') == std::string::npos)
+    return decodeCompressedDepth(format, data, size, expected);
+  fail("CompressedImage format '", format, "': not a depth image this package reads; it reads '16UC1; png ",
+       "compressed' and 'mono16; png compressed' (image_transport's compressed transport: a PNG of 16-bit depth) ",
+       "and compressedDepth ('16UC1; compressedDepth png', '... rvl', '32FC1; compressedDepth ...')");
+}
+
 CompressedDepth encodeCompressedDepth(const cv::Mat& depth, const CompressedDepthOptions& options)
 {
   validate(options);

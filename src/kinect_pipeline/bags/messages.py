@@ -59,14 +59,6 @@ def camera_from_info(info: Any) -> Any:
 #: its ``compressed`` plugin where it holds a lossless PNG of 16-bit or 8-bit depth (``16UC1; png compressed``).
 TRANSPORTS = ("/compressedDepth", "/compressed")
 
-#: What the tools decode of image_transport's ``compressed`` plugin: a lossless PNG of 16-bit depth (as the node).
-PNG_DEPTH = ("16UC1", "mono16")
-
-SUPPORTED = (
-    "sensor_msgs/Image (8UC1, mono8, 16UC1, mono16, 32FC1), its compressedDepth (16UC1 / 32FC1; compressedDepth png "
-    "or rvl) and its compressed PNG of 16-bit depth (16UC1 / mono16; png compressed)"
-)
-
 
 def is_compressed_depth(msgtype: str, topic: str) -> bool:
     """A CompressedImage topic of a transport the tools read (``…/compressedDepth``, ``…/compressed``)."""
@@ -82,31 +74,13 @@ def depth_array(msg: Any) -> np.ndarray:
             return np.asarray(
                 _core.depth_from_buffer(msg.encoding, msg.width, msg.height, msg.step, bool(msg.is_bigendian), msg.data)
             )
-        fmt = str(msg.format)
-        if "compressedDepth" in fmt:
-            decode = getattr(_core, "decode_compressed_depth", None)
-            if decode is None:
-                raise BagError("compressedDepth images: this build of the core has no decoder")
-            return np.asarray(decode(fmt, msg.data))
-        return png_depth(fmt, msg.data)
+        decode = getattr(_core, "decode_compressed_depth", None)
+        if decode is None:
+            raise BagError("compressed depth images: this build of the core has no decoder")
+        # Which formats are depth (compressedDepth, a PNG of 16-bit depth) is the core's rule: it names the others.
+        return np.asarray(decode(str(msg.format), msg.data))
     except (ValueError, TypeError) as exc:
         raise BagError(str(exc)) from exc
-
-
-def png_depth(fmt: str, data: Any) -> np.ndarray:
-    """A depth image of image_transport's ``compressed`` plugin: format ``16UC1; png compressed`` (or mono16), a
-    bare lossless 16-bit PNG, which the core's compressedDepth decoder reads as it reads the PNG of a
-    compressedDepth message. JPEG, 8-bit, colour and anything else raise BagError naming the format and what is
-    read."""
-    encoding, _, rest = fmt.partition(";")
-    if encoding.strip() not in PNG_DEPTH or "png" not in rest.split():
-        raise BagError(
-            f"compressed image format {fmt.strip()!r}: not a depth image the tools read; they read {SUPPORTED}"
-        )
-    decode = getattr(_core, "decode_compressed_depth", None)
-    if decode is None:
-        raise BagError("compressed PNG depth images: this build of the core has no decoder")
-    return np.asarray(decode("16UC1; compressedDepth png", data))
 
 
 def header(types: Any, stamp_msg: Any, frame_id: str, seq: int = 0) -> Any:
