@@ -53,10 +53,11 @@ void checkRows(const std::vector<CurvePoint>& curve, double max_depth, float flo
   lut.build(curve, k8 ? Encoding::kMono8 : Encoding::kMono16, max_depth);
   const float scale = k8 ? static_cast<float>(max_depth / 255.0) : 0.001f;
   const ValueTerms terms = valueTerms<T>(lut.valueTable(), scale);
-  std::vector<float> col(w, 0.0f), row(1), t(w);
+  std::vector<float> col(w, 0.0f), row(1), t(w), fh(w);
+  std::vector<std::int32_t> steps(w);
   std::vector<std::uint8_t> cand(w + 8), vlab(256), vdst(256), lab_v(w), lab_p(w);
   std::vector<T> src(w), in(w), dst_v(w), dst_p(w);
-  const LabelBuffers buf{t.data(), cand.data(), vlab.data(), vdst.data()};
+  const LabelBuffers buf{t.data(), fh.data(), steps.data(), cand.data(), vlab.data(), vdst.data()};
   std::mt19937 rng(17);
   for (int i = 0; i < 240; ++i)
   {
@@ -79,7 +80,7 @@ void checkRows(const std::vector<CurvePoint>& curve, double max_depth, float flo
         RowCounts cv;
         const bool taken = value.label(0, src.data(), raw, w, lab_v.data(), dst_v.data(), buf, cv);
         const RowCounts cp = labelRowByPixel<T>(f, 0, src.data(), raw, w, lab_p.data(), dst_p.data(), t.data(),
-                                                cand.data());
+                                                fh.data(), steps.data(), cand.data());
         ++tally.rows;
         tally.by_value += taken;
         if (!taken)
@@ -136,4 +137,26 @@ TEST(ValueLabelling, GivesTheRulesLabelsWhereverItTakesARow)
     EXPECT_GT(t.by_value, t.rows / 4) << "of " << t.rows << " rows";
     EXPECT_LT(t.by_value, t.rows) << "of " << t.rows << " rows";
   }
+}
+
+// The per-pixel labeller's floor offsets under a floor profile (liftRow: steps, then a gather) are the rule's own,
+// PlaneRule::floorAt, bit for bit: rows of every slope (roll either way), rises from below the table to above 0.
+TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
+{
+  std::vector<float> table(256);
+  for (int i = 0; i < 256; ++i)
+    table[i] = 0.001f * static_cast<float>((i * 37) % 41) - 0.02f;
+  PlaneRule rule{0.001f, 1.1f, 1.0f, FloorLift{table.data(), -0.9f, 256 / 0.9f, 255}};
+  const int w = 640;
+  std::vector<float> col(w), fh(w);
+  std::vector<std::int32_t> steps(w);
+  for (const float slope : {-3e-4f, -1e-5f, 0.0f, 2e-5f, 4e-4f})
+    for (const float rise_row : {-1.2f, -0.6f, -0.05f, 0.0f, 0.3f})
+    {
+      for (int u = 0; u < w; ++u)
+        col[u] = slope * static_cast<float>(u - w / 2);
+      liftRow(col.data(), rise_row, rule, w, steps.data(), fh.data());
+      for (int u = 0; u < w; ++u)
+        ASSERT_EQ(fh[u], rule.floorAt(col[u] + rise_row)) << "slope " << slope << ", rise_row " << rise_row << ", u " << u;
+    }
 }

@@ -24,14 +24,16 @@ struct FloorLift
   float inv_step = 0.0f;         ///< steps per unit of rise
   int last = 0;                  ///< the last step
 
-  /** @return the lift [m] on a ray of rise @p rise (table != nullptr). */
-  __attribute__((always_inline)) float at(float rise) const
+  /** @return the step of the table a ray of rise @p rise reads: non-decreasing in the rise. */
+  __attribute__((always_inline)) int step(float rise) const
   {
     float i = (rise - lo) * inv_step;
     i = i < static_cast<float>(last) ? i : static_cast<float>(last);
     i = i > 0.0f ? i : 0.0f;
-    return table[static_cast<int>(i)];
+    return static_cast<int>(i);
   }
+  /** @return the lift [m] on a ray of rise @p rise (table != nullptr). */
+  __attribute__((always_inline)) float at(float rise) const { return table[step(rise)]; }
 };
 
 /**

@@ -22,6 +22,8 @@ struct ThreadScratch
   OpeningScratch opening;
   BinScratch bins;
   std::vector<float> t;                  ///< threshold of each pixel of the row [m]
+  std::vector<float> fh;                 ///< floor offset of each pixel of the row, with a floor profile [m]
+  std::vector<std::int32_t> steps;       ///< the floor profile's lift step of each pixel of the row
   std::vector<std::uint8_t> cand;        ///< the rescue's flags of the row
   std::vector<std::uint8_t> vlab, vdst;  ///< labels of the 256 values (8-bit rows by value)
   std::array<std::uint64_t, kNumLabels> counts{};
@@ -31,11 +33,13 @@ struct ThreadScratch
     opening.resize(w);
     bins.resize(w, beams);
     t.resize(w);
+    fh.resize(w);
+    steps.resize(w);
     cand.resize(w + 8);
     vlab.resize(256);
     vdst.resize(256);
   }
-  LabelBuffers labelBuffers() { return {t.data(), cand.data(), vlab.data(), vdst.data()}; }
+  LabelBuffers labelBuffers() { return {t.data(), fh.data(), steps.data(), cand.data(), vlab.data(), vdst.data()}; }
 };
 /** A Pipeline's frame buffers, and the value labelling's terms of its threshold table. */
 struct FrameWork

@@ -241,8 +241,8 @@ bool scanSplit(const ValueRule<std::uint8_t>& label, int lo, int hi, std::uint8_
                ValueSplit& out)
 {
   const int n = hi - lo + 1;
-  classifyRow<std::uint8_t, false, false>(label.values + lo, nullptr, label.table + lo, label.colc, label.rise_row,
-                                   label.rule, n, lab, dst, nullptr);
+  classifyRow<std::uint8_t, false, false>(label.values + lo, nullptr, label.table + lo, nullptr, label.colc,
+                                          label.rise_row, label.rule, n, lab, dst, nullptr);
   int i = 0;
   while (i < n && lab[i] == kKept)
     ++i;

@@ -74,6 +74,8 @@ struct ValueProof
 struct LabelBuffers
 {
   float* t;             ///< w: the row's thresholds (pixel by pixel)
+  float* fh;            ///< w: the row's floor offsets (pixel by pixel, with a floor profile)
+  std::int32_t* steps;  ///< w: the floor profile's lift step of each pixel
   std::uint8_t* cand;   ///< w + 8: the rescue's flags
   std::uint8_t *vlab, *vdst;  ///< 256 each: the labels of the 8-bit values (rows by value)
 };
@@ -126,7 +128,7 @@ public:
     if constexpr (kInteger)
       if (by_value_ && value_.label(r, src, in, w, lab, dst, buf, c))
         return c;
-    return labelRowByPixel<T>(f_, r, src, in, w, lab, dst, buf.t, buf.cand);
+    return labelRowByPixel<T>(f_, r, src, in, w, lab, dst, buf.t, buf.fh, buf.steps, buf.cand);
   }
 
 private:

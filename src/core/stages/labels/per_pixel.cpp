@@ -2,6 +2,7 @@
 // (stages/labels/per_pixel.h). Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
 #include "stages/labels/per_pixel.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "base/simd.h"
@@ -10,12 +11,13 @@ namespace kinect_pipeline
 {
 namespace detail
 {
-// Branch-free, with restrict pointers, so that the compiler vectorises it. kLift: the rule has a floor profile (a
-// load per pixel).
+// Branch-free, with restrict pointers, so that the compiler vectorises it. kLift: the floor offsets of a floor profile
+// (liftRow()).
 template <typename T, bool kRescue, bool kLift>
 KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
-                                const float* __restrict col, float rise_row, PlaneRule rule, int w,
-                                std::uint8_t* __restrict lab, T* __restrict dst, std::uint8_t* __restrict cand)
+                                const float* __restrict fh, const float* __restrict col, float rise_row,
+                                PlaneRule rule, int w, std::uint8_t* __restrict lab, T* __restrict dst,
+                                std::uint8_t* __restrict cand)
 {
   using Tr = DepthTraits<T>;
   const T removed = Tr::removed();
@@ -25,9 +27,7 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
     const T v = src[u];
     float d;
     bool keep, below;
-    const float rise = col[u] + rise_row;
-    const float fh = kLift ? rule.floor_h + rule.lift.at(rise) : rule.floor_h;
-    const std::uint8_t l = rule.label(v, t[u], rise, fh, d, keep, below);
+    const std::uint8_t l = rule.label(v, t[u], col[u] + rise_row, kLift ? fh[u] : rule.floor_h, d, keep, below);
     lab[u] = l;
     dst[u] = keep ? v : removed;
     if constexpr (kRescue)
@@ -45,6 +45,31 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
     n_ceiling += l == kAboveCeiling;
   }
   return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
+}
+
+namespace
+{
+// The lift table's step of each pixel of a row under a floor profile (vectorised: no gather).
+KP_CLONES void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_step, int last, int w,
+                         std::int32_t* __restrict k)
+{
+  const float top = static_cast<float>(last);
+  for (int u = 0; u < w; ++u)
+  {
+    float i = (col[u] + rise_row - lo) * inv_step;  // FloorLift::step(), in a form the compiler vectorises
+    i = i < top ? i : top;
+    i = i > 0.0f ? i : 0.0f;
+    k[u] = static_cast<std::int32_t>(i);
+  }
+}
+}  // namespace
+
+// One loop of both, or floorAt() per pixel, does not vectorise and costs four times as much.
+void liftRow(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh)
+{
+  liftSteps(col, rise_row, rule.lift.lo, rule.lift.inv_step, rule.lift.last, w, steps);
+  for (int u = 0; u < w; ++u)
+    fh[u] = rule.floor_h + rule.lift.table[steps[u]];
 }
 
 namespace
@@ -104,37 +129,43 @@ void rescueRow(const RuleTerms& f, int r, const std::uint8_t* cand, const T* in,
 
 template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
-                          float* t, std::uint8_t* cand)
+                          float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
   thresholdRow<T>(src, *f.lut, f.rule.scale, w, t);
   RowCounts c;
   if (f.rule.lift.table)
-    c = in ? classifyRow<T, true, true>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
-           : classifyRow<T, false, true>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+  {
+    if (f.one_rise_per_row)
+      std::fill(fh, fh + w, f.rule.floorAt(f.col[0] + f.row[r]));
+    else
+      liftRow(f.col, f.row[r], f.rule, w, steps, fh);
+    c = in ? classifyRow<T, true, true>(src, in, t, fh, f.col, f.row[r], f.rule, w, lab, dst, cand)
+           : classifyRow<T, false, true>(src, nullptr, t, fh, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+  }
   else
-    c = in ? classifyRow<T, true, false>(src, in, t, f.col, f.row[r], f.rule, w, lab, dst, cand)
-           : classifyRow<T, false, false>(src, nullptr, t, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+    c = in ? classifyRow<T, true, false>(src, in, t, nullptr, f.col, f.row[r], f.rule, w, lab, dst, cand)
+           : classifyRow<T, false, false>(src, nullptr, t, nullptr, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
   if (c.candidates > 0)
     rescueRow<T>(f, r, cand, in, src, w, lab, dst, c);
   return c;
 }
 
+#define KP_CLASSIFY(T, R, L)                                                                                         \
+  template RowCounts classifyRow<T, R, L>(const T*, const T*, const float*, const float*, const float*, float,      \
+                                          PlaneRule, int, std::uint8_t*, T*, std::uint8_t*);
 #define KP_INSTANTIATE(T)                                                                                            \
-  template RowCounts classifyRow<T, true, false>(const T*, const T*, const float*, const float*, float, PlaneRule,  \
-                                                 int, std::uint8_t*, T*, std::uint8_t*);                            \
-  template RowCounts classifyRow<T, false, false>(const T*, const T*, const float*, const float*, float, PlaneRule, \
-                                                  int, std::uint8_t*, T*, std::uint8_t*);                           \
-  template RowCounts classifyRow<T, true, true>(const T*, const T*, const float*, const float*, float, PlaneRule,   \
-                                                int, std::uint8_t*, T*, std::uint8_t*);                             \
-  template RowCounts classifyRow<T, false, true>(const T*, const T*, const float*, const float*, float, PlaneRule,  \
-                                                 int, std::uint8_t*, T*, std::uint8_t*);                            \
+  KP_CLASSIFY(T, true, false)                                                                                        \
+  KP_CLASSIFY(T, false, false)                                                                                       \
+  KP_CLASSIFY(T, true, true)                                                                                         \
+  KP_CLASSIFY(T, false, true)                                                                                        \
   template void rescueRow<T>(const RuleTerms&, int, const std::uint8_t*, const T*, const T*, int, std::uint8_t*, T*, \
                              RowCounts&);                                                                           \
   template RowCounts labelRowByPixel<T>(const RuleTerms&, int, const T*, const T*, int, std::uint8_t*, T*, float*,  \
-                                        std::uint8_t*);
+                                        float*, std::int32_t*, std::uint8_t*);
 KP_INSTANTIATE(std::uint8_t)
 KP_INSTANTIATE(std::uint16_t)
 KP_INSTANTIATE(float)
 #undef KP_INSTANTIATE
+#undef KP_CLASSIFY
 }  // namespace detail
 }  // namespace kinect_pipeline

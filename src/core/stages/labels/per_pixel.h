@@ -14,22 +14,29 @@ namespace detail
 /**
  * Plane removal of one row of opened values src: labels, cleaned depth (removed: DepthTraits::removed()) and the
  * rescue, with the raw row in (nullptr: nothing was opened, no rescue).
- * @param t scratch of w floats (the row's thresholds), @param cand scratch of w + 8 bytes (the rescue's flags)
+ * @param t, fh scratch of w floats each (the row's thresholds and floor offsets), @param steps scratch of w ints (the
+ *        floor profile's steps), @param cand scratch of w + 8 bytes (the rescue's flags)
  */
 template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
-                          float* t, std::uint8_t* cand);
+                          float* t, float* fh, std::int32_t* steps, std::uint8_t* cand);
 
 /**
  * The labels of a row's pixels by the rule (PlaneRule::label), each with its threshold t[u] and rise col[u] +
  * rise_row, and (kRescue) in cand the flags of the pixels the rescue may relabel: kept or below the floor, with a
  * raw value in[u] (unmapped) that the opening moved nearer by more than moveBand(t[u]), a superset of those it
  * relabels (t(raw) >= t(opened): the table is non-decreasing). Without kRescue, in and cand are not used. kLift: the
- * floor offset of each pixel is rule.floorAt(its rise) (a floor profile); else rule.floor_h.
+ * floor offset of pixel u is fh[u] (rule.floorAt(its rise): a floor profile); else rule.floor_h (fh not used).
  */
 template <typename T, bool kRescue, bool kLift>
-RowCounts classifyRow(const T* src, const T* in, const float* t, const float* col, float rise_row, PlaneRule rule,
-                      int w, std::uint8_t* lab, T* dst, std::uint8_t* cand);
+RowCounts classifyRow(const T* src, const T* in, const float* t, const float* fh, const float* col, float rise_row,
+                      PlaneRule rule, int w, std::uint8_t* lab, T* dst, std::uint8_t* cand);
+
+/**
+ * The floor offset of each pixel of row r under a floor profile, rule.floorAt(col[u] + rise_row): the lift table's
+ * steps (vectorised), then a plain gather. @param steps scratch of w ints, @param fh the offsets (w floats)
+ */
+void liftRow(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh);
 
 /**
  * The rescue (PlaneRule::rescued) of the pixels of row r flagged in cand, a superset of those it relabels; updates

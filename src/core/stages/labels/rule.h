@@ -141,6 +141,7 @@ struct RuleTerms
   const float* col;   ///< PlaneModel::colTerm()
   const float* row;   ///< PlaneModel::rowTerm()
   const ThresholdLut* lut;
+  bool one_rise_per_row = false;  ///< every column term is the same (no roll): a row has one floor offset
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
