@@ -195,11 +195,12 @@ constexpr float kMillimetreMedian = 100.0f;
 
 /** @throw std::invalid_argument for a CV_32FC1 image that is plainly millimetres: the median of its valid pixels,
  *  on a subsample of about 4096, above kMillimetreMedian. */
-void checkMetres(const cv::Mat& depth)
+// v: scratch for the samples (cleared; its capacity is kept from frame to frame: no allocation once warm).
+void checkMetres(const cv::Mat& depth, std::vector<float>& v)
 {
   if (depth.type() != CV_32FC1)
     return;
-  std::vector<float> v;
+  v.clear();
   const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(depth.total()) / 4096.0)));
   for (int r = 0; r < depth.rows; r += step)
   {
@@ -221,7 +222,7 @@ void checkMetres(const cv::Mat& depth)
   }
 }
 
-void checkImage(const cv::Mat& depth, const Camera& camera)
+void checkImage(const cv::Mat& depth, const Camera& camera, std::vector<float>& scratch)
 {
   if (depth.empty())
     throw std::invalid_argument("depth image is empty: expected a " + std::to_string(camera.width) + "x" +
@@ -230,7 +231,7 @@ void checkImage(const cv::Mat& depth, const Camera& camera)
   if (depth.dims != 2 || (type != CV_8UC1 && type != CV_16UC1 && type != CV_32FC1))
     throw std::invalid_argument("depth image type " + cv::typeToString(type) + " with " +
                                 std::to_string(depth.dims) + " dimensions: expected a 2-D 8UC1, 16UC1 or 32FC1 image");
-  checkMetres(depth);
+  checkMetres(depth, scratch);
   if (depth.cols != camera.width || depth.rows != camera.height)
   {
     std::ostringstream s;
@@ -320,7 +321,7 @@ void Pipeline::process(const cv::Mat& depth, const SensorPose& prior, FrameResul
 {
   using detail::Clock;
   const auto t0 = Clock::now();
-  detail::checkImage(depth, camera_);
+  detail::checkImage(depth, camera_, work_->samples);
   detail::checkPose(prior, config_.ceiling_height);
   const int type = depth.type();
   const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : (type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32);
