@@ -201,16 +201,17 @@ def test_real_realsense_frames_show_no_false_cliff() -> None:
 
 
 def _spot_depth() -> np.ndarray:
-    """The Spot bag's depth frame (uint16 mm, 424x240): a stereo camera mounted rolled about 80 deg, looking down."""
+    """The Spot bag's depth frame (uint16 mm, 424x240): a stereo camera mounted rolled about 80 deg, looking down;
+    read as the tools read it."""
     from pathlib import Path
 
-    from rosbags.highlevel import AnyReader
+    from kinect_pipeline.bags.messages import depth_array
+    from kinect_pipeline.bags.reader import open_bag
 
-    with AnyReader([Path(REAL) / "spot_bags" / "raw.bag"]) as reader:
-        conns = [c for c in reader.connections if c.topic == "/spot/depth/frontleft/image"]
-        for conn, _, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
-            return np.frombuffer(msg.data, np.uint16).reshape(msg.height, msg.width).copy()
+    with open_bag(Path(REAL) / "spot_bags" / "raw.bag") as bag:
+        conns = [c for c in bag.connections if c.topic == "/spot/depth/frontleft/image"]
+        for conn, _, raw in bag.messages(conns):
+            return depth_array(bag.decode(conn, raw))
     raise AssertionError("no depth frame in the Spot bag")
 
 

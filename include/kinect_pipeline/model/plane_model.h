@@ -34,6 +34,11 @@ struct FloorLift
   }
   /** @return the lift [m] on a ray of rise @p rise (table != nullptr). */
   __attribute__((always_inline)) float at(float rise) const { return table[step(rise)]; }
+  /** @return the floor offset on a ray of rise @p rise: the plane's @p floor_h plus the lift where there is one. */
+  __attribute__((always_inline)) float floorAt(float floor_h, float rise) const
+  {
+    return table ? floor_h + at(rise) : floor_h;
+  }
 };
 
 /**
@@ -78,7 +83,9 @@ public:
   /** @return the profile as a lift of the floor offset per ray (table nullptr: none). */
   FloorLift lift() const;
   /** @return the floor's offset on a ray of rise @p rise: floorOffset() plus the profile's lift. */
-  float floorAt(float rise) const { return lift_.empty() ? floor_offset_ : floor_offset_ + lift().at(rise); }
+  float floorAt(float rise) const { return lift().floorAt(floor_offset_, rise); }
+  /** @return whether every column term is the same (no roll): each row has one rise, one floor offset. */
+  bool oneRisePerRow() const { return one_rise_per_row_; }
 
   /** @return predicted floor depth at pixel (u, r) [m] (plane and profile), +Inf where the ray never meets it. */
   double floorDepth(int u, int r) const;
@@ -95,6 +102,7 @@ private:
   std::vector<float> lift_;  // kLiftSteps lifts from lift_lo_ (empty: no profile, or no ray meets the floor)
   float lift_lo_ = 0.0f, lift_inv_step_ = 0.0f;
   float floor_offset_ = 0.0f, ceiling_offset_ = 0.0f;
+  bool one_rise_per_row_ = true;
   bool valid_ = false;
   Camera camera_;
   Geometry geometry_ = Geometry::kExact;

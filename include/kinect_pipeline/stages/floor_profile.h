@@ -7,9 +7,9 @@
  * at 3-4 m, far more at grazing angles), a floor may be gently curved. The profile is the median depth residual of
  * the frame's floor pixels per band of the plane's depth, learned as a recency-weighted mean over frames, bounded
  * in height by Config::floor_profile_max; the prediction is the plane plus the profile (PlaneModel::setProfile).
- * It learns only from pixels within floor_profile_max (plus t(d)) of the plane in height, never from vertical
- * surfaces: a stair, a hole or an obstacle lies beyond that, and a band's median ignores a minority of anything
- * else. Design notes: docs/floor_refinement.md ("The floor profile").
+ * It learns only from pixels within floor_profile_max in height of the floor it predicts so far, never from
+ * vertical surfaces: a stair, a hole or an obstacle lies beyond that, and a band's median ignores a minority of
+ * anything else. Design notes: docs/floor_refinement.md ("The floor profile").
  */
 #pragma once
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "kinect_pipeline/model/pose.h"
@@ -50,6 +51,7 @@ bool PlaneModel::update(const Camera& camera, const Config& config, double heigh
     }
     ceiling_offset_ = static_cast<float>(ceiling_);
   }
+  one_rise_per_row_ = std::adjacent_find(col_.begin(), col_.end(), std::not_equal_to<float>()) == col_.end();
   buildLift();
   return true;
 }

@@ -8,7 +8,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -382,10 +381,8 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out)
 
   // Stage 2: the rule's terms at this pose, the labelling, the binning of the projection (chosen here, once).
   const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset(), planes_.lift()},
-                        planes_.colTerm().data(), planes_.rowTerm().data(), &lut_,
-                        std::adjacent_find(planes_.colTerm().begin(), planes_.colTerm().end(),
-                                           std::not_equal_to<float>()) == planes_.colTerm().end()};
-  const RowLabeller<T> labeller(terms, work.value_terms, depth.cols, paths_);
+                        planes_.colTerm().data(), planes_.rowTerm().data(), &lut_, planes_.oneRisePerRow()};
+  const RowLabeller<T> labeller(terms, work.value_terms, paths_);
   const RowBinner binner(projector_, camera_.width, paths_);
   const RowStages<T> stages{opening,
                             labeller,

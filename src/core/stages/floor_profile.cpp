@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "stages/floor_sampling.h"
 #include "stages/frame_common.h"

@@ -61,7 +61,8 @@ def fit_curve(
     cal = calibrate(frames, camera)
     if not cal.found:
         raise ValueError(f"curve: {cal.message}")
-    pipe = _core.Pipeline(camera, _core.Config(open_kernel_size=0))
+    # Residuals against the calibrated plane itself: no floor profile learned from the frames being measured.
+    pipe = _core.Pipeline(camera, _core.Config(open_kernel_size=0, floor_profile_max=0.0))
     depths, residuals = [], []
     for _, metres in frames:
         pipe.process_pose(metres, cal.height, cal.pitch, cal.roll)

@@ -114,12 +114,9 @@ class RowLabeller
 
 public:
   /** @param paths labels: every row pixel by pixel (the reference path); portable: no AVX-512 */
-  RowLabeller(const RuleTerms& f, const ValueTerms& terms, int w, const ReferencePaths& paths)
-      : f_(f), value_(f, terms, !paths.portable)
+  RowLabeller(const RuleTerms& f, const ValueTerms& terms, const ReferencePaths& paths)
+      : f_(f), value_(f, terms, !paths.portable), by_value_(kInteger && !paths.labels && f.one_rise_per_row)
   {
-    by_value_ = kInteger && !paths.labels;
-    for (int u = 1; u < w && by_value_; ++u)
-      by_value_ = f.col[u] == f.col[0];
   }
   /** @param in the raw row (nullptr: nothing was opened, no rescue) */
   RowCounts label(int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst, const LabelBuffers& buf) const
@@ -139,7 +136,7 @@ private:
   };
   RuleTerms f_;
   std::conditional_t<kInteger, ValueLabeller<T>, None> value_;
-  bool by_value_ = false;
+  bool by_value_;
 };
 }  // namespace detail
 }  // namespace kinect_pipeline

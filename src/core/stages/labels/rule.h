@@ -36,10 +36,7 @@ struct PlaneRule
   FloorLift lift;  ///< PlaneModel::lift(): the floor's profile beyond the plane (table nullptr: none)
 
   /** @return the floor's offset on a ray of rise R: floor_h plus the profile's lift (PlaneModel::floorAt()). */
-  __attribute__((always_inline)) float floorAt(float rise) const
-  {
-    return lift.table ? floor_h + lift.at(rise) : floor_h;
-  }
+  __attribute__((always_inline)) float floorAt(float rise) const { return lift.floorAt(floor_h, rise); }
 
   /// How far beyond the floor a pixel is still floor [m], at threshold t.
   static float farBand(float t) { return t; }
@@ -141,7 +138,7 @@ struct RuleTerms
   const float* col;   ///< PlaneModel::colTerm()
   const float* row;   ///< PlaneModel::rowTerm()
   const ThresholdLut* lut;
-  bool one_rise_per_row = false;  ///< every column term is the same (no roll): a row has one floor offset
+  bool one_rise_per_row = false;  ///< PlaneModel::oneRisePerRow(): a row has one rise and one floor offset
 };
 }  // namespace detail
 }  // namespace kinect_pipeline

@@ -86,8 +86,7 @@ struct CliffRule
   /** @return whether a below-floor pixel at depth d [m] on a ray of rise R is cliff evidence. */
   bool evidence(float d, float rise) const
   {
-    const float fh = lift.table ? floor_h + lift.at(rise) : floor_h;
-    return !(min_drop > 0.0f) || (d <= max_depth && d * rise + fh < -min_drop);
+    return !(min_drop > 0.0f) || (d <= max_depth && d * rise + lift.floorAt(floor_h, rise) < -min_drop);
   }
 
   /** @return whether a beam's cliff at range cliff [m] is hidden by its nearest obstacle at range obstacle [m]. */
