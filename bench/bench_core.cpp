@@ -2,7 +2,11 @@
 // 1 and 2 threads, next to a memcpy of the same frame measured in the same run, and their ratio.
 // Also counts heap allocations per frame in steady state (global operator new is counted here).
 //
-//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,...] [--markdown]
+// --simd restricts the kernels' run-time dispatch to one SIMD target (kinect_pipeline/simd.h); a list measures each
+// target in turn, side by side, in one run.
+//
+//   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...]
+//                         [--encodings 8UC1,...] [--simd native,avx2,...] [--markdown]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -17,6 +21,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/simd.h"
 #include "kinect_pipeline/tools/synthetic.h"
 
 namespace
@@ -68,6 +73,9 @@ int main(int argc, char** argv)
   std::string projection = "horizontal";
   bool markdown = false;
   std::vector<int> types = {CV_8UC1, CV_16UC1, CV_32FC1};
+  // KINECT_PIPELINE_SIMD is the default of --simd here (restrictSimd of each run would otherwise undo it).
+  const char* env_simd = std::getenv("KINECT_PIPELINE_SIMD");
+  std::vector<std::string> simds = {env_simd && *env_simd ? env_simd : "native"};
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
@@ -105,6 +113,16 @@ int main(int argc, char** argv)
       refine_floor = false;
     else if (a == "--markdown")
       markdown = true;
+    else if (a == "--simd" && i + 1 < argc)
+    {
+      simds.clear();
+      for (std::string t = argv[++i]; !t.empty();)
+      {
+        const std::size_t comma = t.find(',');
+        simds.push_back(t.substr(0, comma));
+        t = comma == std::string::npos ? "" : t.substr(comma + 1);
+      }
+    }
     else if (a == "--threads" && i + 1 < argc)
     {
       // A comma-separated list, e.g. 1,2,4,8,16; the first is the speed-up's reference.
@@ -124,11 +142,22 @@ int main(int argc, char** argv)
     }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--surface-band B] [--no-refine-floor] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--simd native|avx512|avx2|sse4|scalar,...] [--surface-band B] [--no-refine-floor] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
 
+  for (const std::string& t : simds)
+    try
+    {
+      restrictSimd(t);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      std::fprintf(stderr, "%s: %s\n", env_simd && simds.size() == 1 && t == env_simd ? "KINECT_PIPELINE_SIMD" : "--simd",
+                   e.what());
+      return 2;
+    }
   // The scene is rendered with OpenCV, whose own worker threads (TBB) would then spin on the CPUs for a while,
   // beside the frames' OpenMP threads: the pipeline uses no OpenCV threads, and the bench renders on one.
   cv::setNumThreads(0);
@@ -141,7 +170,7 @@ int main(int argc, char** argv)
 
   struct Row
   {
-    std::string enc;
+    std::string enc, simd;
     int threads;
     double memcpy_ms, total, prepare, floor_fit, erode, classify, confidence;
     double allocs;
@@ -153,7 +182,10 @@ int main(int argc, char** argv)
     cv::Mat copy(frame.size(), frame.type());
     const std::size_t bytes = frame.total() * frame.elemSize();
     for (const int threads : thread_counts)
+      for (const std::string& simd : simds)
     {
+      restrictSimd(simd);
+      const std::string ran = simd == "native" ? "native (" + simdTarget() + ")" : simdTarget();
       Config cfg;
       cfg.sensor_height = height;
       cfg.sensor_pitch = pitch;
@@ -186,7 +218,7 @@ int main(int argc, char** argv)
         tf.push_back(res.times.confidence);
       }
       rows.push_back({toString(type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32),
-                      threads, median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
+                      ran, threads, median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
                       static_cast<double>(allocs) / frames});
     }
   }
@@ -196,27 +228,28 @@ int main(int argc, char** argv)
               frames, kernel, kernel, projection.c_str(), surface_band);
   if (markdown)
   {
-    std::printf("| encoding | threads | memcpy [ms] | prepare | (floor fit) | erode | classify+scan | confidence | "
+    std::printf("| encoding | simd | threads | memcpy [ms] | prepare | (floor fit) | erode | classify+scan | confidence | "
                 "frame [ms] | frame / memcpy | floor fit / frame | speed-up vs 1 thread | allocations / frame |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   }
   else
   {
-    std::printf("%-6s %3s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "thr", "memcpy", "prepare",
+    std::printf("%-6s %-15s %3s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "simd", "thr", "memcpy", "prepare",
                 "floor fit", "erode", "classify", "conf", "frame", "x memcpy", "fit/frame", "speedup", "allocs");
   }
   for (std::size_t i = 0; i < rows.size(); ++i)
   {
     const Row& r = rows[i];
-    const double one = rows[i - i % thread_counts.size()].total;  // this encoding's first thread count
+    const std::size_t per_enc = thread_counts.size() * simds.size();
+    const double one = rows[i - i % per_enc + i % simds.size()].total;  // this encoding's and target's first thread count
     const double speedup = one / r.total;
     if (markdown)
-      std::printf("| %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
-                  r.enc.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence,
+      std::printf("| %s | %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
+                  r.enc.c_str(), r.simd.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence,
                   r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
     else
-      std::printf("%-6s %3d %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n", r.enc.c_str(),
-                  r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence, r.total,
+      std::printf("%-6s %-15s %3d %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n", r.enc.c_str(),
+                  r.simd.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence, r.total,
                   r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
   }
   std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run; the floor fit is "

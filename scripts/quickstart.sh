@@ -16,7 +16,7 @@ APT_PACKAGES=(
   libroscpp-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libimage-transport-dev libcv-bridge-dev
   libsensor-msgs-dev libstd-msgs-dev libtf2-ros-dev libdynamic-reconfigure-config-init-mutex-dev
   python3-dynamic-reconfigure librostest-dev python3-rostest python3-rospy python3-sensor-msgs python3-cv-bridge
-  python3-tf2-ros libopencv-dev libgtest-dev googletest pybind11-dev python3-pybind11 python3-numpy
+  python3-tf2-ros libopencv-dev libhwy-dev libgtest-dev googletest pybind11-dev python3-pybind11 python3-numpy
   python3-opencv python3-pytest python3-matplotlib libdiagnostic-updater-dev libgeometry-msgs-dev
   python3-rosbag python3-roslaunch python3-rostopic python3-diagnostic-msgs python3-std-srvs rviz xvfb x11-apps
   imagemagick image-transport-tools libcamera-calibration-parsers-dev libroslib-dev

@@ -10,7 +10,6 @@
 
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/stages/opening_kernels.h"
-#include "kinect_pipeline/stages/scan.h"  // detail::vectorPathsAvailable
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -37,8 +36,8 @@ cv::Mat randomImage(int rows, int cols, int type, unsigned seed)
 
 using kp_test::sameBits;
 
-// OpenCV's morphologyEx is the slow, obvious reference; vector: the AVX-512 3x3 path (else the portable loops).
-void checkRect(int type, int ksize, int rows, int cols, bool vector)
+// OpenCV's morphologyEx is the slow, obvious reference; the row kernels run on the SIMD target the dispatch picks.
+void checkRect(int type, int ksize, int rows, int cols)
 {
   const cv::Mat img = randomImage(rows, cols, type, 7 + ksize + rows);
   cv::Mat ref, scratch;
@@ -46,8 +45,8 @@ void checkRect(int type, int ksize, int rows, int cols, bool vector)
   if (type == CV_32FC1)
     ref.setTo(INFINITY, ref == FLT_MAX);  // OpenCV pads float borders with FLT_MAX; both mean "no return"
   cv::Mat got;
-  morphOpen(img, got, ksize, KernelShape::kRect, scratch, vector);
-  EXPECT_TRUE(sameBits(ref, got)) << (vector ? "AVX-512" : "portable") << ", type " << type << ", kernel "
+  morphOpen(img, got, ksize, KernelShape::kRect, scratch);
+  EXPECT_TRUE(sameBits(ref, got)) << kinect_pipeline::simdTarget() << ", type " << type << ", kernel "
                                    << ksize << ", " << rows << "x" << cols;
 }
 
@@ -62,23 +61,24 @@ class OpenVsOpenCV : public ::testing::TestWithParam<std::tuple<int, int, int, i
 TEST_P(OpenVsOpenCV, RectIsIdentical)
 {
   const auto [type, ksize, rows, cols] = GetParam();
-  checkRect(type, ksize, rows, cols, false);
+  checkRect(type, ksize, rows, cols);
 }
 
 INSTANTIATE_TEST_SUITE_P(Types, OpenVsOpenCV,
                          ::testing::Combine(::testing::Values(CV_8UC1, CV_16UC1, CV_32FC1), ::testing::Values(3, 5, 7),
                                             ::testing::ValuesIn(kRows), ::testing::ValuesIn(kCols)));
 
-// The same cases on the hand-written AVX-512 path (the 3x3 rectangle of 8- and 16-bit rows), where the CPU has it.
-TEST(Morphology, Avx512RectIsIdentical)
+// The same cases on every SIMD target this CPU has (the row kernels are compiled once per target).
+TEST(Morphology, EveryTargetsRectIsIdentical)
 {
-  if (!detail::vectorPathsAvailable())
-    GTEST_SKIP() << "this CPU (or this build) has no AVX-512 F/BW/DQ/VL: the AVX-512 opening cannot run here";
-  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
-    for (const int ksize : {3, 5, 7})
-      for (const int rows : kRows)
-        for (const int cols : kCols)
-          checkRect(type, ksize, rows, cols, true);
+  const auto ran = kp_test::forEachSimdTarget([](const std::string&) {
+    for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+      for (const int ksize : {3, 5, 7})
+        for (const int rows : kRows)
+          for (const int cols : kCols)
+            checkRect(type, ksize, rows, cols);
+  });
+  EXPECT_GE(ran.size(), 2u) << "at least the scalar target and one vector target on x86-64 and aarch64";
 }
 
 TEST(Morphology, OtherShapesUseOpenCV)
@@ -103,9 +103,9 @@ TEST(Morphology, RefusesEvenKernels)
 namespace
 {
 // The erosion of the fused pipeline maps unknown pixels to no-return on the fly (the 3x3 case by an order-preserving
-// key, not by mapping): against mapping every pixel first, then OpenCV's erosion. vector: the AVX-512 3x3 path.
+// key, not by mapping): against mapping every pixel first, then OpenCV's erosion.
 template <typename T>
-void checkErodeMapped(int type, int rows, int cols, bool vector)
+void checkErodeMapped(int type, int rows, int cols)
 {
   cv::Mat img = randomImage(rows, cols, type, 11 + cols);
   std::mt19937 rng(5 + cols);
@@ -130,30 +130,27 @@ void checkErodeMapped(int type, int rows, int cols, bool vector)
     cv::Mat got(img.size(), img.type());
     std::vector<T> tmp(cols);
     for (int r = 0; r < rows; ++r)
-      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r), vector);
+      detail::erodeMappedRow<T>(img, r, ksize / 2, tmp.data(), got.ptr<T>(r));
     EXPECT_TRUE(sameBits(ref, got)) << "type " << type << " size " << rows << "x" << cols << " kernel " << ksize
-                                     << (vector ? " AVX-512" : " portable");
+                                     << " " << kinect_pipeline::simdTarget();
   }
 }
 
-void checkAllErodeMapped(bool vector)
+void checkAllErodeMapped()
 {
   for (const int cols : kCols)
     for (const int rows : {1, 2, 9})
     {
-      checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols, vector);
-      checkErodeMapped<std::uint16_t>(CV_16UC1, rows, cols, vector);
-      checkErodeMapped<float>(CV_32FC1, rows, cols, vector);
+      checkErodeMapped<std::uint8_t>(CV_8UC1, rows, cols);
+      checkErodeMapped<std::uint16_t>(CV_16UC1, rows, cols);
+      checkErodeMapped<float>(CV_32FC1, rows, cols);
     }
 }
 
 }  // namespace
 
-TEST(Morphology, ErodeMappedMatchesMappingFirst) { checkAllErodeMapped(false); }
-
-TEST(Morphology, Avx512ErodeMappedMatchesMappingFirst)
+TEST(Morphology, ErodeMappedMatchesMappingFirstOnEveryTarget)
 {
-  if (!detail::vectorPathsAvailable())
-    GTEST_SKIP() << "this CPU (or this build) has no AVX-512 F/BW/DQ/VL: the AVX-512 erosion cannot run here";
-  checkAllErodeMapped(true);
+  const auto ran = kp_test::forEachSimdTarget([](const std::string&) { checkAllErodeMapped(); });
+  EXPECT_GE(ran.size(), 2u);
 }

@@ -153,3 +153,32 @@ void expectInvalid(F f, std::initializer_list<const char*> words)
 }
 
 }  // namespace kp_test
+
+#include <functional>
+
+#include "kinect_pipeline/simd.h"
+
+namespace kp_test
+{
+/**
+ * Runs check(target) under each SIMD target this CPU has (kinect_pipeline::simdTargets(): every one the dispatch
+ * can pick here), then gives the dispatch back its choice of target. The targets it ran, for the test to assert on.
+ */
+inline std::vector<std::string> forEachSimdTarget(const std::function<void(const std::string&)>& check)
+{
+  struct Native
+  {
+    ~Native() { kinect_pipeline::restrictSimd("native"); }
+  } native;
+  std::vector<std::string> ran;
+  for (const std::string& t : kinect_pipeline::simdTargets())
+  {
+    kinect_pipeline::restrictSimd(t);
+    if (kinect_pipeline::simdTarget() != t)
+      throw std::runtime_error("restrictSimd(" + t + ") left the dispatch at " + kinect_pipeline::simdTarget());
+    check(t);
+    ran.push_back(t);
+  }
+  return ran;
+}
+}  // namespace kp_test

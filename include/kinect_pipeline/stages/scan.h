@@ -98,17 +98,12 @@ namespace detail
 {
 /**
  * The nearest of range[lo[j] .. hi[j]] into bins[j] (min with what it holds) for j < n, NaN ranges ignored, with
- * AVX-512 (lo and hi as ScanProjector::planPixels gives them: growing or falling with j); with counts, counts[j]
- * also gains the number of finite ranges among them.
- * @return false (nothing done) where the CPU or the build has no AVX-512 (see vectorPathsAvailable())
+ * the SIMD kernel of the target the dispatch picks (lo and hi as ScanProjector::planPixels gives them: growing or
+ * falling with j; range readable up to 31 floats past the last pixel); with counts, counts[j] also gains the
+ * number of finite ranges among them. Its plain reference: the binning's pull bin by bin (ReferencePaths::portable).
  */
-bool pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+void pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
                  std::int32_t* counts = nullptr);
-/**
- * Whether the hand-written AVX-512 paths can run here: the library was built with them (GCC on x86-64) and the CPU
- * has AVX-512 F, BW, DQ and VL. Where not, ReferencePaths::portable changes nothing: the portable loops always run.
- */
-bool vectorPathsAvailable();
 }  // namespace detail
 
 /**

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "base/simd.h"
 #include "pipeline/frame_work.h"
 #include "stages/frame_common.h"
 #include "stages/labels/by_value.h"
@@ -265,6 +266,7 @@ void checkPose(const SensorPose& pose, double ceiling_height)
 Pipeline::Pipeline(const Camera& camera, const Config& config, const ReferencePaths& paths)
     : paths_(paths), work_(std::make_unique<detail::FrameWork>())
 {
+  detail::simdFromEnvironment();
   camera.validate();
   config.validate();
   camera_ = camera;

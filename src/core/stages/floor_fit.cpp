@@ -5,11 +5,11 @@
 #include <cmath>
 #include <limits>
 
-#include "base/simd.h"
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/plane_fit.h"
 #include "kinect_pipeline/model/pose.h"
 #include "stages/floor_sampling.h"
+#include "stages/normal_equations.h"
 #include "stages/frame_common.h"
 
 namespace kinect_pipeline
@@ -56,7 +56,7 @@ constexpr double kHardBound = 2.0;
 constexpr double kBeyondPixels = 2.0;
 constexpr double kBeyondGain = 1.5;
 constexpr double kNominalFramePeriod = 1.0 / 30.0;  // [s] between frames without stamps
-constexpr int kLanes = 16;  // the fit's sums run in this many independent lanes (one AVX-512 vector of floats)
+constexpr int kLanes = detail::kNormalLanes;  // whole lanes of the normal equations' sums
 
 bool poseIsValid(const SensorPose& p, const Config& c)
 {
@@ -217,47 +217,6 @@ std::vector<FloorFit::Point> FloorFit::points() const
   return out;
 }
 
-namespace
-{
-/**
- * The weighted normal equations of the plane e = a + b x + c y over points [0, n) (n a multiple of kLanes):
- * Tukey's biweight of each residual at scale window / inv_sigma, weight inv_sigma^2 on top; points farther than
- * sqrt(radius2) do not count. Sums per lane in
- * float (independent accumulators, so the lanes vectorise without reassociation), then in double.
- * @param out xx, xy, xz, yy, yz, zz of the matrix, then the right-hand side (3)
- */
-KP_CLONES void normalEquations(const float* __restrict x, const float* __restrict y, const float* __restrict e,
-                               const float* __restrict inv_sigma, const float* __restrict range2, int n, float a,
-                               float b, float c, float inv_window, float radius2, double out[9])
-{
-  float acc[9][kLanes] = {};
-  for (int i = 0; i < n; i += kLanes)
-    for (int j = 0; j < kLanes; ++j)
-    {
-      const float px = x[i + j], py = y[i + j], pe = e[i + j], is = range2[i + j] <= radius2 ? inv_sigma[i + j] : 0.0f;
-      const float u = (pe - (a + b * px + c * py)) * is * inv_window;
-      const float v = std::max(0.0f, 1.0f - u * u);
-      const float w = v * v * is * is;
-      acc[0][j] += w;
-      acc[1][j] += w * px;
-      acc[2][j] += w * py;
-      acc[3][j] += w * px * px;
-      acc[4][j] += w * px * py;
-      acc[5][j] += w * py * py;
-      acc[6][j] += w * pe;
-      acc[7][j] += w * pe * px;
-      acc[8][j] += w * pe * py;
-    }
-  for (int k = 0; k < 9; ++k)
-  {
-    double s = 0.0;
-    for (int j = 0; j < kLanes; ++j)
-      s += acc[k][j];
-    out[k] = s;
-  }
-}
-}  // namespace
-
 float FloorFit::nearestFloor() const
 {
   std::array<int, static_cast<int>(kMaxFitDepth / kRangeBin) + 1> hist{};
@@ -286,7 +245,7 @@ FloorFit::Plane FloorFit::fitPlane(const Config& cfg) const
   for (const Stage& st : kStages)
   {
     const float radius = near + st.radius;
-    normalEquations(x_.data(), y_.data(), e_.data(), inv_sigma_.data(), range2_.data(), n, static_cast<float>(p.a),
+    detail::normalEquations(x_.data(), y_.data(), e_.data(), inv_sigma_.data(), range2_.data(), n, static_cast<float>(p.a),
                     static_cast<float>(p.b), static_cast<float>(p.c), 1.0f / (kTukey * st.window), radius * radius,
                     sums);
     const double reg[6] = {sums[0] + prior_w[0], sums[1], sums[2], sums[3] + prior_w[1], sums[4], sums[5] + prior_w[2]};

@@ -24,6 +24,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="the frames without the floor refinement (refine_floor false), to see what it costs (default: on)",
     )
+    p.add_argument(
+        "--simd",
+        default="native",
+        help="SIMD target(s) of the kernels, comma-separated, measured side by side: native, avx512, avx2, sse4, "
+        "scalar (aarch64: neon, sve, sve2); the table names the one that ran (default: native)",
+    )
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (default: plain text)")
 
 
@@ -50,6 +56,7 @@ def run(args: argparse.Namespace) -> int:
         cmd += ["--surface-band", str(args.surface_band)]
     if args.no_refine_floor:
         cmd.append("--no-refine-floor")
+    cmd += ["--simd", args.simd]
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)

@@ -1,5 +1,5 @@
 // The labels of 8- and 16-bit rows without roll by value thresholds (stages/labels/by_value.h): the proof that a row's
-// labels are monotone in the value, the search for the thresholds, the row kernels (portable and AVX-512) and the
+// labels are monotone in the value, the search for the thresholds, the plain row kernel (the SIMD one's reference) and the
 // rescue's flags. Design notes: docs/core_design.md ("Labels by value").
 #include "stages/labels/by_value.h"
 
@@ -9,7 +9,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "base/simd.h"
+#include "stages/labels/split_row.h"
 
 namespace kinect_pipeline
 {
@@ -86,19 +86,6 @@ Monotone ValueProof::monotone(float rise) const
 
 namespace
 {
-/**
- * An 8- or 16-bit row whose pixels all have the same rise (no roll) has labels that depend on the value alone.
- * Where they are monotone in the value (kept, floor, below floor; or kept, above ceiling), two integer compares
- * per pixel classify the row: a value v below the no-return value is kept below t1, labelled l1 from t1 and
- * l1 + l2 from t2 (the no-return value: no such value).
- */
-struct ValueSplit
-{
-  int t1 = 0, t2 = 0;
-  std::uint8_t l1 = 0, l2 = 0;
-  int min_move = 1;  // the rescue's flags: raw values at least this many values above the opened one (rescueMove)
-};
-
 /** Labels single values of a row by the rule, as classifyRow labels pixels: the same labels, bit for bit. */
 template <typename T>
 struct ValueRule
@@ -290,27 +277,13 @@ bool splitValues(const ValueRule<T>& label, const ValueProof& proof, int lo, int
     return false;  // 65535 values: the row is labelled pixel by pixel
 }
 
-// A row's counts from those of its values at or above t1 (n1) and t2 (n2), of no return (ni) and of the rescue's
-// flags (nc).
-inline RowCounts splitCounts(const ValueSplit& s, int w, int n1, int n2, int ni, int nc)
-{
-  RowCounts c;
-  c.kept = w - n1;
-  c.invalid = ni;
-  // n1 - n2 pixels have label l1; the no-return values count in n1 and n2 alike.
-  c.floor = s.l1 == kFloor ? n1 - n2 : 0;
-  c.ceiling = s.l1 == kAboveCeiling ? n1 - n2 : 0;
-  c.candidates = nc;
-  return c;
-}
-
 // Labels, cleaned depth and counts of an 8- or 16-bit row from its value thresholds. Integer arithmetic of the
 // pixel's width only, with counters of that width per block of 128 pixels (a multiple of every vector width), so
 // that it vectorises without a scalar tail. With in (the raw row), also flags in cand the pixels the rescue may
 // relabel: kept or below floor, moved nearer by the opening, and whose raw value has the label floor or above
 // ceiling (values rt1 <= v < rt2).
 template <typename T>
-KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
+RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
                              T* __restrict dst, const T* __restrict in, std::uint8_t* __restrict cand)
 {
   using Tr = DepthTraits<T>;
@@ -371,172 +344,14 @@ KP_CLONES RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s
   return splitCounts(s, w, n1, n2, ni, nc);
 }
 
-#if defined(KP_AVX512_PATHS)
-#pragma GCC diagnostic push
-// 64-byte vectors pass only between functions inlined into splitRow512: no call has the ABI the warning is about.
-#pragma GCC diagnostic ignored "-Wpsabi"
-#if !defined(__clang__)
-// GCC 12's 512-to-256-bit casts and extracts pass an undefined vector as their unused source: false warnings.
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#pragma GCC diagnostic ignored "-Wuninitialized"
-#endif
-/**
- * splitRow with AVX-512: the compares as masks, labels and flags built in bytes from them, counts per lane in
- * vector registers, summed once per row (not reduced per block as splitRow's byte counters are). The same bits as
- * splitRow: labels are 0, l1, l1 + l2 or kInvalid in any width, and the rest are compares and selects.
- */
-template <typename T, bool kRescue>
-KP_TARGET_AVX512 RowCounts splitRow512(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst,
-                                       const T* in, std::uint8_t* cand)
-{
-  constexpr bool k8 = sizeof(T) == 1;
-  constexpr int L = 64 / sizeof(T);
-  using Mask = std::conditional_t<k8, __mmask64, __mmask32>;
-  using Tr = DepthTraits<T>;
-  constexpr T none = Tr::kNoReturn;
-  const bool rescuable = s.t1 < none && (s.l1 == kFloor || s.l1 == kAboveCeiling);
-  const auto splat = [](int x) KP_TARGET_AVX512 {
-    return k8 ? _mm512_set1_epi8(static_cast<char>(x)) : _mm512_set1_epi16(static_cast<short>(x));
-  };
-  const __m512i t1 = splat(s.t1), t2 = splat(s.t2), vnone = splat(none), rt1 = splat(rescuable ? s.t1 : none);
-  const __m512i minvalid = splat(Tr::kMinValid), move1 = splat(s.min_move - 1);
-  // Counts per lane (a masked subtraction of -1 adds one, in the mask registers: moving masks to general registers
-  // for popcounts costs more on some CPUs), summed per row and every 255 blocks (8-bit lanes).
-  const __m512i minus1 = _mm512_set1_epi32(-1);
-  __m512i c1 = _mm512_setzero_si512(), c2 = c1, ci = c1, cc = c1;
-  int n1 = 0, n2 = 0, ni = 0, nc = 0;
-  const auto count = [&](__m512i& c, Mask m) KP_TARGET_AVX512 {
-    c = k8 ? _mm512_mask_sub_epi8(c, m, c, minus1) : _mm512_mask_sub_epi16(c, m, c, minus1);
-  };
-  const auto flush = [&]() KP_TARGET_AVX512 {
-    for (__m512i* c : {&c1, &c2, &ci, &cc})
-    {
-      const __m512i sum = k8 ? _mm512_sad_epu8(*c, _mm512_setzero_si512())  // 8 sums of 8 lanes
-                             : _mm512_madd_epi16(*c, _mm512_set1_epi16(1));  // 16 sums of 2 lanes
-      const int n = k8 ? static_cast<int>(_mm512_reduce_add_epi64(sum)) : _mm512_reduce_add_epi32(sum);
-      (c == &c1 ? n1 : c == &c2 ? n2 : c == &ci ? ni : nc) += n;
-      *c = _mm512_setzero_si512();
-    }
-  };
-  // Where kept and below-floor pixels first and last appear: the first column, and the last block's mask.
-  int kept_first = -1, below_first = -1, kept_at = -1, below_at = -1;
-  std::uint64_t kept_mask = 0, below_mask = 0;
-  const auto track = [](Mask m, int u, int& first, int& at, std::uint64_t& last) {
-    if (m == 0)
-      return;
-    if (first < 0)
-      first = u + __builtin_ctzll(m);
-    at = u;
-    last = m;
-  };
-  // One block of L pixels from u (live: the lanes inside the row; counted: those not counted yet).
-  const auto block = [&](int u, Mask live, Mask counted) KP_TARGET_AVX512 {
-    __m512i v, raw = _mm512_setzero_si512();
-    Mask g1, g2, inv, unknown = 0, above = 0, inband = 0;
-    if constexpr (k8)
-    {
-      v = _mm512_maskz_loadu_epi8(live, src + u);
-      g1 = _mm512_cmpge_epu8_mask(v, t1);
-      g2 = _mm512_cmpge_epu8_mask(v, t2);
-      inv = _mm512_cmpeq_epi8_mask(v, vnone);
-      _mm512_mask_storeu_epi8(dst + u, live, _mm512_mask_mov_epi8(v, g1, vnone));  // removed: 255
-      if constexpr (kRescue)
-      {
-        raw = _mm512_maskz_loadu_epi8(live, in + u);
-        unknown = _mm512_cmplt_epu8_mask(raw, minvalid);
-        raw = _mm512_mask_mov_epi8(raw, unknown, vnone);  // DepthTraits::map
-        above = _mm512_cmpgt_epu8_mask(raw, _mm512_adds_epu8(v, move1));  // raw - v >= min_move
-        inband = _mm512_cmpge_epu8_mask(raw, rt1) & _mm512_cmplt_epu8_mask(raw, t2);
-      }
-    }
-    else
-    {
-      v = _mm512_maskz_loadu_epi16(live, src + u);
-      g1 = _mm512_cmpge_epu16_mask(v, t1);
-      g2 = _mm512_cmpge_epu16_mask(v, t2);
-      inv = _mm512_cmpeq_epi16_mask(v, vnone);
-      _mm512_mask_storeu_epi16(dst + u, live, _mm512_maskz_mov_epi16(static_cast<Mask>(~g1), v));  // removed: 0
-      if constexpr (kRescue)
-      {
-        raw = _mm512_maskz_loadu_epi16(live, in + u);
-        unknown = _mm512_cmplt_epu16_mask(raw, minvalid);
-        raw = _mm512_mask_mov_epi16(raw, unknown, vnone);
-        above = _mm512_cmpgt_epu16_mask(raw, _mm512_adds_epu16(v, move1));
-        inband = _mm512_cmpge_epu16_mask(raw, rt1) & _mm512_cmplt_epu16_mask(raw, t2);
-      }
-    }
-    // Labels in bytes: l1 from t1, + l2 from t2, no return kInvalid (it is >= t1 and >= t2).
-    const __m512i l1 = _mm512_set1_epi8(static_cast<char>(s.l1)), l2 = _mm512_set1_epi8(static_cast<char>(s.l2));
-    __m512i l = _mm512_maskz_mov_epi8(g1, l1);
-    l = _mm512_mask_add_epi8(l, g2, l, l2);
-    l = _mm512_mask_mov_epi8(l, inv, _mm512_set1_epi8(kInvalid));
-    if constexpr (k8)
-      _mm512_mask_storeu_epi8(lab + u, live, l);
-    else
-      _mm256_mask_storeu_epi8(lab + u, live, _mm512_castsi512_si256(l));
-    count(c1, g1 & counted);
-    count(c2, g2 & counted);
-    count(ci, inv & counted);
-    track(static_cast<Mask>(~g1 & live), u, kept_first, kept_at, kept_mask);  // kept: below t1
-    track(static_cast<Mask>(_mm512_cmpeq_epi8_mask(l, _mm512_set1_epi8(kBelowFloor)) & live), u, below_first, below_at,
-          below_mask);
-    if constexpr (kRescue)
-    {
-      const Mask kb = _mm512_cmpeq_epi8_mask(l, _mm512_set1_epi8(kKept)) |
-                      _mm512_cmpeq_epi8_mask(l, _mm512_set1_epi8(kBelowFloor));
-      const Mask f = kb & above & inband;
-      const __m512i one = _mm512_maskz_mov_epi8(f, _mm512_set1_epi8(1));
-      if constexpr (k8)
-        _mm512_mask_storeu_epi8(cand + u, live, one);
-      else
-        _mm256_mask_storeu_epi8(cand + u, live, _mm512_castsi512_si256(one));
-      count(cc, f & counted);
-    }
-  };
-  const Mask all = static_cast<Mask>(~Mask{0});
-  if (w < L)
-  {
-    const Mask live = static_cast<Mask>(all >> (L - w));
-    block(0, live, live);
-  }
-  else
-  {
-    int u = 0, blocks = 0;
-    for (; u + L <= w; u += L)
-    {
-      block(u, all, all);
-      if (++blocks == 255)
-      {
-        flush();
-        blocks = 0;
-      }
-    }
-    if (u < w)
-      block(w - L, all, static_cast<Mask>(all << (u - (w - L))));  // the lanes before u are counted already
-  }
-  flush();
-  RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
-  c.kept_first = kept_first;
-  c.kept_last = kept_at < 0 ? -1 : kept_at + 63 - __builtin_clzll(kept_mask);
-  c.below_first = below_first;
-  c.below_last = below_at < 0 ? -1 : below_at + 63 - __builtin_clzll(below_mask);
-  return c;
-}
-#pragma GCC diagnostic pop
-#endif
-
-// splitRow, with AVX-512 where the CPU has it and vector is on.
+// splitRow, with the SIMD kernel where vector is on.
 template <typename T>
 RowCounts splitRowFast(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
                        std::uint8_t* cand, bool vector)
 {
-#if defined(KP_AVX512_PATHS)
-  if (vector && detail::vectorPathsSupported())
-    return in ? splitRow512<T, true>(src, w, s, lab, dst, in, cand)
-              : splitRow512<T, false>(src, w, s, lab, dst, nullptr, nullptr);
-#else
-  (void)vector;
-#endif
+  RowCounts c;
+  if (vector && splitRowSimd<T>(src, w, s, lab, dst, in, cand, c))
+    return c;
   return splitRow<T>(src, w, s, lab, dst, in, cand);
 }
 }  // namespace

@@ -88,7 +88,7 @@ template <typename T>
 class ValueLabeller
 {
 public:
-  /** @param vector the AVX-512 row kernel where the CPU has it (false: the portable loop, the same bits) */
+  /** @param vector the SIMD row kernel (false: its plain reference loop, the same bits) */
   ValueLabeller(const RuleTerms& f, const ValueTerms& terms, bool vector);
   /** @return false (nothing written) where the row's labels are not (provably) monotone in the value. */
   bool label(int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst, const LabelBuffers& buf,
@@ -113,7 +113,7 @@ class RowLabeller
   static constexpr bool kInteger = std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>;
 
 public:
-  /** @param paths labels: every row pixel by pixel (the reference path); portable: no AVX-512 */
+  /** @param paths labels: every row pixel by pixel (the reference path); portable: the plain row split */
   RowLabeller(const RuleTerms& f, const ValueTerms& terms, const ReferencePaths& paths)
       : f_(f), value_(f, terms, !paths.portable), by_value_(kInteger && !paths.labels && f.one_rise_per_row)
   {

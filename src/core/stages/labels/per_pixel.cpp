@@ -1,20 +1,66 @@
-// The reference labeller: the plane removal rule (stages/labels/rule.h) pixel by pixel, and the rescue
-// (stages/labels/per_pixel.h). Design notes: docs/core_design.md ("The rule", "Stage 2: labels").
+// The reference labeller: the plane removal rule (stages/labels/rule.h) pixel by pixel, its loops compiled once
+// per SIMD target, and the rescue (stages/labels/per_pixel.h). Design notes: docs/core_design.md ("The rule",
+// "Stage 2: labels"; "SIMD kernels and their references").
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "stages/labels/per_pixel.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
 #include "stages/labels/per_pixel.h"
 
 #include <algorithm>
 #include <cstring>
+#include <type_traits>
 
-#include "base/simd.h"
-
+// The loops of one SIMD target.
+#ifndef KP_PER_PIXEL_KERNELS
+#define KP_PER_PIXEL_KERNELS
 namespace kinect_pipeline
 {
 namespace detail
 {
+template <typename T>
+struct PixelKernelsOf
+{
+  RowCounts (*classify[2][2])(const T* src, const T* in, const float* t, const float* fh, const float* col,
+                              float rise_row, PlaneRule rule, int w, std::uint8_t* lab, T* dst, std::uint8_t* cand);
+  void (*threshold)(const T* src, const ThresholdLut& lut, float scale, int w, float* t);
+};
+struct PixelKernels
+{
+  PixelKernelsOf<std::uint8_t> u8;
+  PixelKernelsOf<std::uint16_t> u16;
+  PixelKernelsOf<float> f32;
+  void (*lift_steps)(const float* col, float rise_row, float lo, float inv_step, int last, int w, std::int32_t* k);
+
+  template <typename T>
+  const PixelKernelsOf<T>& of() const
+  {
+    if constexpr (std::is_same_v<T, std::uint8_t>)
+      return u8;
+    else if constexpr (std::is_same_v<T, std::uint16_t>)
+      return u16;
+    else
+      return f32;
+  }
+};
+}  // namespace detail
+}  // namespace kinect_pipeline
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace kinect_pipeline
+{
+namespace detail
+{
+namespace HWY_NAMESPACE
+{
+namespace
+{
 // Branch-free, with restrict pointers, so that the compiler vectorises it. kLift: the floor offsets of a floor profile
 // (liftRow()).
 template <typename T, bool kRescue, bool kLift>
-KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
+RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
                                 const float* __restrict fh, const float* __restrict col, float rise_row,
                                 PlaneRule rule, int w, std::uint8_t* __restrict lab, T* __restrict dst,
                                 std::uint8_t* __restrict cand)
@@ -47,10 +93,8 @@ KP_CLONES RowCounts classifyRow(const T* __restrict src, const T* __restrict in,
   return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
 }
 
-namespace
-{
 // The lift table's step of each pixel of a row under a floor profile (vectorised: no gather).
-KP_CLONES void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_step, int last, int w,
+void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_step, int last, int w,
                          std::int32_t* __restrict k)
 {
   const float top = static_cast<float>(last);
@@ -62,12 +106,44 @@ KP_CLONES void liftSteps(const float* __restrict col, float rise_row, float lo, 
     k[u] = static_cast<std::int32_t>(i);
   }
 }
+
+template <typename T>
+void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
+{
+  // A gather, which SSE cannot vectorise: kept out of classifyRow.
+  for (int u = 0; u < w; ++u)
+    t[u] = thresholdOf(lut, src[u], scale);
+}
+
+template <typename T>
+constexpr PixelKernelsOf<T> kernelsOf()
+{
+  return {{{classifyRow<T, false, false>, classifyRow<T, false, true>},
+           {classifyRow<T, true, false>, classifyRow<T, true, true>}},
+          thresholdRow<T>};
+}
 }  // namespace
+
+const PixelKernels kPixelKernels = {kernelsOf<std::uint8_t>(), kernelsOf<std::uint16_t>(), kernelsOf<float>(),
+                                    liftSteps};
+const PixelKernels* pixelKernelTable() { return &kPixelKernels; }
+}  // namespace HWY_NAMESPACE
+}  // namespace detail
+}  // namespace kinect_pipeline
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace kinect_pipeline
+{
+namespace detail
+{
+HWY_EXPORT(pixelKernelTable);
+const PixelKernels& pixelKernels() { return *HWY_DYNAMIC_DISPATCH(pixelKernelTable)(); }
 
 // One loop of both, or floorAt() per pixel, does not vectorise and costs four times as much.
 void liftRow(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh)
 {
-  liftSteps(col, rise_row, rule.lift.lo, rule.lift.inv_step, rule.lift.last, w, steps);
+  pixelKernels().lift_steps(col, rise_row, rule.lift.lo, rule.lift.inv_step, rule.lift.last, w, steps);
   for (int u = 0; u < w; ++u)
     fh[u] = rule.floor_h + rule.lift.table[steps[u]];
 }
@@ -99,13 +175,6 @@ inline bool rescuePixel(int u, const T* in, const T* src, const ThresholdLut& lu
   return true;
 }
 
-template <typename T>
-KP_CLONES void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
-{
-  // A gather, which SSE cannot vectorise: kept out of classifyRow.
-  for (int u = 0; u < w; ++u)
-    t[u] = thresholdOf(lut, src[u], scale);
-}
 }  // namespace
 
 // 8 flags (0/1 bytes) at a time, then their set bytes.
@@ -131,7 +200,7 @@ template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
-  thresholdRow<T>(src, *f.lut, f.rule.scale, w, t);
+  pixelKernels().of<T>().threshold(src, *f.lut, f.rule.scale, w, t);
   RowCounts c;
   if (f.rule.lift.table)
   {
@@ -148,6 +217,13 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
   if (c.candidates > 0)
     rescueRow<T>(f, r, cand, in, src, w, lab, dst, c);
   return c;
+}
+
+template <typename T, bool kRescue, bool kLift>
+RowCounts classifyRow(const T* src, const T* in, const float* t, const float* fh, const float* col, float rise_row,
+                      PlaneRule rule, int w, std::uint8_t* lab, T* dst, std::uint8_t* cand)
+{
+  return pixelKernels().of<T>().classify[kRescue][kLift](src, in, t, fh, col, rise_row, rule, w, lab, dst, cand);
 }
 
 #define KP_CLASSIFY(T, R, L)                                                                                         \
@@ -169,3 +245,4 @@ KP_INSTANTIATE(float)
 #undef KP_CLASSIFY
 }  // namespace detail
 }  // namespace kinect_pipeline
+#endif  // HWY_ONCE

@@ -1,5 +1,11 @@
-// The opening's row kernels (stages/opening_kernels.h), checked against OpenCV bit for bit. Design notes:
-// docs/core_design.md ("Stage 1: the opening").
+// The opening's row kernels (stages/opening_kernels.h), plain loops compiled once per SIMD target, checked against
+// OpenCV bit for bit. Design notes: docs/core_design.md ("Stage 1: the opening"; "SIMD kernels and their
+// references").
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "stages/opening/kernels.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
 #include "kinect_pipeline/stages/opening_kernels.h"
 
 #include <algorithm>
@@ -10,12 +16,15 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "base/simd.h"
 #include "kinect_pipeline/model/encoding.h"
+#include "stages/opening/row_kernels.h"
 
+HWY_BEFORE_NAMESPACE();
 namespace kinect_pipeline
 {
 namespace detail
+{
+namespace HWY_NAMESPACE
 {
 namespace
 {
@@ -31,7 +40,7 @@ inline T pick(T a, T b)
 // Horizontal pass: the window is clamped at the image edges, which for min/max equals OpenCV's default
 // border (a value that never wins).
 template <typename T, bool kMin>
-KP_CLONES void horizontal(const T* tmp, int w, int rad, T* dst)
+void horizontal(const T* tmp, int w, int rad, T* dst)
 {
   if (rad == 1 && w >= 3)
   {
@@ -78,7 +87,7 @@ struct MapOrder<T, true>
 // The interior in blocks of a fixed 64 pixels (whole vectors, no scalar tail): the last block overlaps the one
 // before it instead of leaving a remainder.
 template <typename T, bool kMin, bool kMap>
-KP_CLONES void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c, int w, T* __restrict dst)
+void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c, int w, T* __restrict dst)
 {
   using O = MapOrder<T, kMap>;
   const auto col = [&](int u) { return pick<kMin>(pick<kMin>(O::key(a[u]), O::key(b[u])), O::key(c[u])); };
@@ -104,144 +113,23 @@ KP_CLONES void box3Row(const T* __restrict a, const T* __restrict b, const T* __
   dst[w - 1] = O::back(pick<kMin>(col(w - 2), col(w - 1)));
 }
 
-#if defined(KP_AVX512_PATHS)
-#pragma GCC diagnostic push
-#if !defined(__clang__)
-// GCC 12's _mm512_alignr_epi32 passes _mm512_undefined_epi32() as its unused source: a false "may be used
-// uninitialized".
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-// box3Row of 8- and 16-bit rows with AVX-512: the column minima (maxima) of three rows once per pixel, in
-// registers, and their neighbours by shifting the vector across its 128-bit lanes (alignr of 32-bit words, then
-// of bytes) instead of loading six more rows' worth at offsets of one pixel. Min, max and the order key are exact:
-// the same bits as box3Row. The row ends repeat their pixel (min(x, x) = x), as box3Row's ends leave it out.
+}  // namespace
+
+// box3Row of row r of src and its neighbours (the row itself at the image's top and bottom).
 template <typename T, bool kMin, bool kMap>
-struct Box3Vector
-{
-  static constexpr int kLanes = 64 / sizeof(T);
-  static constexpr int kSmallest = kMap ? DepthTraits<T>::kMinValid : 0;
-
-  KP_TARGET_AVX512 static __m512i pick(__m512i x, __m512i y)
-  {
-    if constexpr (sizeof(T) == 1)
-      return kMin ? _mm512_min_epu8(x, y) : _mm512_max_epu8(x, y);
-    else
-      return kMin ? _mm512_min_epu16(x, y) : _mm512_max_epu16(x, y);
-  }
-  KP_TARGET_AVX512 static __m512i key(const T* p)
-  {
-    const __m512i v = _mm512_loadu_si512(p);
-    if constexpr (!kMap)
-      return v;
-    else if constexpr (sizeof(T) == 1)
-      return _mm512_sub_epi8(v, _mm512_set1_epi8(kSmallest));
-    else
-      return _mm512_sub_epi16(v, _mm512_set1_epi16(kSmallest));
-  }
-  // MapOrder::back: keys above no-return - smallest were unknown values.
-  KP_TARGET_AVX512 static __m512i back(__m512i k)
-  {
-    if constexpr (!kMap)
-      return k;
-    constexpr T none = DepthTraits<T>::kNoReturn;
-    if constexpr (sizeof(T) == 1)
-    {
-      const __mmask64 unknown = _mm512_cmpgt_epu8_mask(k, _mm512_set1_epi8(static_cast<char>(none - kSmallest)));
-      return _mm512_mask_mov_epi8(_mm512_add_epi8(k, _mm512_set1_epi8(kSmallest)), unknown,
-                                  _mm512_set1_epi8(static_cast<char>(none)));
-    }
-    else
-    {
-      const __mmask32 unknown = _mm512_cmpgt_epu16_mask(k, _mm512_set1_epi16(static_cast<short>(none - kSmallest)));
-      return _mm512_mask_mov_epi16(_mm512_add_epi16(k, _mm512_set1_epi16(kSmallest)), unknown,
-                                   _mm512_set1_epi16(static_cast<short>(none)));
-    }
-  }
-  KP_TARGET_AVX512 static __m512i column(const T* a, const T* b, const T* c, int u)
-  {
-    return pick(pick(key(a + u), key(b + u)), key(c + u));
-  }
-  // [prev's last pixel, cur's pixels but the last]: the left neighbours of cur's pixels.
-  KP_TARGET_AVX512 static __m512i left(__m512i cur, __m512i prev)
-  {
-    return _mm512_alignr_epi8(cur, _mm512_alignr_epi32(cur, prev, 12), 16 - sizeof(T));
-  }
-  // [cur's pixels but the first, next's first pixel]: the right neighbours.
-  KP_TARGET_AVX512 static __m512i right(__m512i cur, __m512i next)
-  {
-    return _mm512_alignr_epi8(_mm512_alignr_epi32(next, cur, 4), cur, sizeof(T));
-  }
-  // The column of pixel u alone (as box3Row's), in every lane.
-  KP_TARGET_AVX512 static __m512i splatColumn(const T* a, const T* b, const T* c, int u)
-  {
-    using O = MapOrder<T, kMap>;
-    const T v = detail::pick<kMin>(detail::pick<kMin>(O::key(a[u]), O::key(b[u])), O::key(c[u]));
-    if constexpr (sizeof(T) == 1)
-      return _mm512_set1_epi8(static_cast<char>(v));
-    else
-      return _mm512_set1_epi16(static_cast<short>(v));
-  }
-
-  // w >= kLanes. Whole vectors, then the last kLanes pixels once more (the same values where they overlap).
-  KP_TARGET_AVX512 static void row(const T* a, const T* b, const T* c, int w, T* dst)
-  {
-    const int full = w / kLanes * kLanes;
-    __m512i cur = column(a, b, c, 0);
-    __m512i prev = splatColumn(a, b, c, 0);
-    for (int u = 0; u < full; u += kLanes)
-    {
-      // The next whole vector, or (the last one) the pixel after this vector or the row's last pixel repeated.
-      const __m512i next = u + 2 * kLanes <= w ? column(a, b, c, u + kLanes)
-                                               : splatColumn(a, b, c, std::min(u + kLanes, w - 1));
-      _mm512_storeu_si512(dst + u, back(pick(pick(left(cur, prev), cur), right(cur, next))));
-      prev = cur;
-      cur = next;
-    }
-    if (full < w)
-    {
-      const int u = w - kLanes;  // >= 1
-      const __m512i x = column(a, b, c, u);
-      const __m512i m = pick(pick(column(a, b, c, u - 1), x), right(x, splatColumn(a, b, c, w - 1)));
-      _mm512_storeu_si512(dst + u, back(m));
-    }
-  }
-};
-#pragma GCC diagnostic pop
-#endif
-
-// box3Row from the three rows given (w >= 3), with AVX-512 where the CPU has it and vector is on (8- and 16-bit rows).
-template <typename T, bool kMin, bool kMap>
-void box3Rows(const T* a, const T* b, const T* c, int w, T* dst, bool vector)
-{
-#if defined(KP_AVX512_PATHS)
-  if constexpr (!std::is_floating_point_v<T>)
-  {
-    if (vector && w >= Box3Vector<T, kMin, kMap>::kLanes && vectorPathsSupported())
-      return Box3Vector<T, kMin, kMap>::row(a, b, c, w, dst);
-  }
-#else
-  (void)vector;
-#endif
-  box3Row<T, kMin, kMap>(a, b, c, w, dst);
-}
-
-// box3Rows of row r of src and its neighbours (the row itself at the image's top and bottom).
-template <typename T, bool kMin, bool kMap>
-void box3(const cv::Mat& src, int r, T* dst, bool vector)
+void box3(const cv::Mat& src, int r, T* dst)
 {
   const T* b = src.ptr<T>(r);
   const T* a = r > 0 ? src.ptr<T>(r - 1) : b;
   const T* c = r + 1 < src.rows ? src.ptr<T>(r + 1) : b;
-  box3Rows<T, kMin, kMap>(a, b, c, src.cols, dst, vector);
+  box3Row<T, kMin, kMap>(a, b, c, src.cols, dst);
 }
-}  // namespace
-
 template <typename T, bool kMin>
-KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst, bool vector)
+void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   const int w = src.cols;
   if (rad == 1 && w >= 3)
-    return box3<T, kMin, false>(src, r, dst, vector);
+    return box3<T, kMin, false>(src, r, dst);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   std::copy(first, first + w, tmp);
@@ -255,7 +143,7 @@ KP_CLONES void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst, bool 
 }
 
 template <typename T>
-void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst, bool vector)
+void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
 {
   if (w < 3)
   {
@@ -266,18 +154,18 @@ void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst, bool vector)
     horizontal<T, false>(col, w, 1, dst);
     return;
   }
-  box3Rows<T, false, false>(a, b, c, w, dst, vector);
+  box3Row<T, false, false>(a, b, c, w, dst);
 }
 
 template <typename T>
-KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst, bool vector)
+void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   using Tr = DepthTraits<T>;
   const int w = src.cols;
   // Floats: mapping each of the nine loads costs more than the separable passes' wait (no cheap order key).
   if constexpr (!std::is_floating_point_v<T>)
     if (rad == 1 && w >= 3)
-      return box3<T, true, true>(src, r, dst, vector);
+      return box3<T, true, true>(src, r, dst);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   for (int u = 0; u < w; ++u)
@@ -291,11 +179,48 @@ KP_CLONES void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst
   horizontal<T, true>(tmp, w, rad, dst);
 }
 
-#define KP_INSTANTIATE(T)                                                       \
-  template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*, bool);       \
-  template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*, bool);      \
-  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*, bool);     \
-  template void dilate3Rows<T>(const T*, const T*, const T*, int, T*, bool);
+template <typename T>
+constexpr RowKernels<T> kernelsOf()
+{
+  return {rectRow<T, true>, rectRow<T, false>, erodeMappedRow<T>, dilate3Rows<T>};
+}
+const OpeningKernels kOpeningKernels = {kernelsOf<std::uint8_t>(), kernelsOf<std::uint16_t>(), kernelsOf<float>()};
+const OpeningKernels* openingKernelTable() { return &kOpeningKernels; }
+}  // namespace HWY_NAMESPACE
+}  // namespace detail
+}  // namespace kinect_pipeline
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace kinect_pipeline
+{
+namespace detail
+{
+HWY_EXPORT(openingKernelTable);
+const OpeningKernels& openingKernels() { return *HWY_DYNAMIC_DISPATCH(openingKernelTable)(); }
+
+template <typename T, bool kMin>
+void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+{
+  const RowKernels<T>& k = openingKernels().of<T>();
+  (kMin ? k.erode : k.dilate)(src, r, rad, tmp, dst);
+}
+template <typename T>
+void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
+{
+  openingKernels().of<T>().erode_mapped(src, r, rad, tmp, dst);
+}
+template <typename T>
+void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+{
+  openingKernels().of<T>().dilate3(a, b, c, w, dst);
+}
+
+#define KP_INSTANTIATE(T)                                                 \
+  template void rectRow<T, true>(const cv::Mat&, int, int, T*, T*);       \
+  template void rectRow<T, false>(const cv::Mat&, int, int, T*, T*);      \
+  template void erodeMappedRow<T>(const cv::Mat&, int, int, T*, T*);     \
+  template void dilate3Rows<T>(const T*, const T*, const T*, int, T*);
 KP_INSTANTIATE(std::uint8_t)
 KP_INSTANTIATE(std::uint16_t)
 KP_INSTANTIATE(float)
@@ -305,19 +230,19 @@ KP_INSTANTIATE(float)
 namespace
 {
 template <typename T>
-void openRect(const cv::Mat& src, cv::Mat& dst, int rad, cv::Mat& scratch, bool vector)
+void openRect(const cv::Mat& src, cv::Mat& dst, int rad, cv::Mat& scratch)
 {
   scratch.create(src.size(), src.type());
   dst.create(src.size(), src.type());
   std::vector<T> tmp(src.cols);
   for (int r = 0; r < src.rows; ++r)
-    detail::rectRow<T, true>(src, r, rad, tmp.data(), scratch.ptr<T>(r), vector);
+    detail::rectRow<T, true>(src, r, rad, tmp.data(), scratch.ptr<T>(r));
   for (int r = 0; r < src.rows; ++r)
-    detail::rectRow<T, false>(scratch, r, rad, tmp.data(), dst.ptr<T>(r), vector);
+    detail::rectRow<T, false>(scratch, r, rad, tmp.data(), dst.ptr<T>(r));
 }
 }  // namespace
 
-void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, cv::Mat& scratch, bool vector)
+void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, cv::Mat& scratch)
 {
   if (ksize < 3 || ksize % 2 == 0)
   {
@@ -336,11 +261,11 @@ void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, c
   switch (src.type())
   {
     case CV_8UC1:
-      return openRect<std::uint8_t>(src, dst, ksize / 2, scratch, vector);
+      return openRect<std::uint8_t>(src, dst, ksize / 2, scratch);
     case CV_16UC1:
-      return openRect<std::uint16_t>(src, dst, ksize / 2, scratch, vector);
+      return openRect<std::uint16_t>(src, dst, ksize / 2, scratch);
     case CV_32FC1:
-      return openRect<float>(src, dst, ksize / 2, scratch, vector);
+      return openRect<float>(src, dst, ksize / 2, scratch);
     default:
       throw std::invalid_argument("morphOpen: image type " + cv::typeToString(src.type()) +
                                   ": expected 8UC1, 16UC1 or 32FC1");
@@ -348,3 +273,4 @@ void morphOpen(const cv::Mat& src, cv::Mat& dst, int ksize, KernelShape shape, c
 }
 
 }  // namespace kinect_pipeline
+#endif  // HWY_ONCE

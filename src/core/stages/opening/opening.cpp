@@ -16,7 +16,7 @@ namespace detail
 {
 template <typename T>
 Opening<T>::Opening(const Config& config, const ReferencePaths& paths, OpeningImages& images)
-    : vector_(!paths.portable), images_(images)
+    : images_(images)
 {
   ksize_ = config.open_kernel_size;
   rad_ = ksize_ >= 3 ? ksize_ / 2 : 0;
@@ -66,7 +66,7 @@ void Opening<T>::erodeRows(const cv::Mat& depth, OpeningScratch& s) const
   const int h = depth.rows;
 #pragma omp for schedule(static)
   for (int r = 0; r < h; ++r)
-    erodeMappedRow<T>(depth, r, rad_, reinterpret_cast<T*>(s.tmp.data()), images_.eroded.ptr<T>(r), vector_);
+    erodeMappedRow<T>(depth, r, rad_, reinterpret_cast<T*>(s.tmp.data()), images_.eroded.ptr<T>(r));
 }
 
 template <typename T>
@@ -86,16 +86,16 @@ const T* Opening<T>::row(const cv::Mat& depth, int r, OpeningScratch& s) const
         T* ring = reinterpret_cast<T*>(s.ring.data()) + static_cast<std::size_t>(slot) * w;
         if (s.ring_rows[slot] != j)
         {
-          erodeMappedRow<T>(depth, j, 1, tmp, ring, vector_);
+          erodeMappedRow<T>(depth, j, 1, tmp, ring);
           s.ring_rows[slot] = j;
         }
         e[d] = ring;
       }
-      dilate3Rows<T>(e[0], e[1], e[2], w, row, vector_);
+      dilate3Rows<T>(e[0], e[1], e[2], w, row);
       return row;
     }
     case OpeningMode::kRectRows:
-      rectRow<T, false>(images_.eroded, r, rad_, tmp, row, vector_);
+      rectRow<T, false>(images_.eroded, r, rad_, tmp, row);
       return row;
     case OpeningMode::kOpenCV:
       return images_.opened.ptr<T>(r);

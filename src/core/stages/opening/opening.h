@@ -56,7 +56,7 @@ template <typename T>
 class Opening
 {
 public:
-  /** @param paths opening: cv::morphologyEx for every kernel shape (the reference path); portable: no AVX-512 */
+  /** @param paths opening: cv::morphologyEx for every kernel shape (the reference path) */
   Opening(const Config& config, const ReferencePaths& paths, OpeningImages& images);
   bool opens() const { return mode_ != OpeningMode::kNone; }
   /** Before the row loop: the whole image's opening where OpenCV does it (else nothing). */
@@ -71,7 +71,6 @@ private:
   OpeningMode mode_ = OpeningMode::kNone;
   int ksize_ = 0, rad_ = 0;
   int cv_shape_ = 0;
-  bool vector_ = true;  ///< the AVX-512 3x3 kernel where the CPU has it (row kernels' vector argument)
   OpeningImages& images_;
 };
 }  // namespace detail

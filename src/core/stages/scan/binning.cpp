@@ -7,7 +7,6 @@
 #include <cstring>
 #include <type_traits>
 
-#include "base/simd.h"
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/types.h"
@@ -37,7 +36,7 @@ namespace
 {
 // z[u] = depth of the kept pixel u of the cleaned row, +Inf for removed ones, for u in [u0, u1].
 template <typename T>
-KP_CLONES void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
+void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __restrict z)
 {
   for (int u = u0; u <= u1; ++u)
     z[u] = keptMetres(dst[u], scale);
@@ -45,7 +44,7 @@ KP_CLONES void keptDepth(const T* __restrict dst, int u0, int u1, float scale, f
 
 // z[u] = measured (raw) depth of the pixel u labelled kept, +Inf for the others and for no return, u in [u0, u1].
 template <typename T>
-KP_CLONES void keptRawDepth(const T* __restrict in, const std::uint8_t* __restrict lab, int u0, int u1, float scale,
+void keptRawDepth(const T* __restrict in, const std::uint8_t* __restrict lab, int u0, int u1, float scale,
                             float* __restrict z)
 {
   using Tr = DepthTraits<T>;
@@ -57,13 +56,13 @@ KP_CLONES void keptRawDepth(const T* __restrict in, const std::uint8_t* __restri
 }
 
 // range[u] = range[u]^2, u in [u0, u1].
-KP_CLONES void squareSpan(float* __restrict range, int u0, int u1)
+void squareSpan(float* __restrict range, int u0, int u1)
 {
   for (int u = u0; u <= u1; ++u)
     range[u] *= range[u];
 }
 
-KP_CLONES void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
+void minInto(const float* __restrict z, int u0, int u1, float* __restrict m)
 {
   for (int u = u0; u <= u1; ++u)
     m[u] = z[u] < m[u] ? z[u] : m[u];
@@ -93,7 +92,7 @@ inline std::uint64_t labelBits(const std::uint8_t* p, std::uint8_t l)
 }
 
 // flag[u] = whether the centres of pixels u and u + 1 lie more than a bin apart, u in [a, b); 0 from b to b + 7.
-KP_CLONES void gapFlags(const std::int32_t* __restrict key, int a, int b, std::uint8_t* __restrict flag)
+void gapFlags(const std::int32_t* __restrict key, int a, int b, std::uint8_t* __restrict flag)
 {
   for (int u = a; u < b; ++u)
     flag[u] = static_cast<unsigned>(key[u + 1] - key[u] + 1) > 2u;
@@ -153,7 +152,7 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
 }  // namespace
 
 template <typename T>
-KP_CLONES void belowFloorDepth(const T* __restrict src, const std::uint8_t* __restrict lab, int u0, int u1,
+void belowFloorDepth(const T* __restrict src, const std::uint8_t* __restrict lab, int u0, int u1,
                                float scale, const float* __restrict col, float row, const CliffRule& rule,
                                float* __restrict z)
 {
@@ -171,7 +170,7 @@ template void belowFloorDepth<float>(const float*, const std::uint8_t*, int, int
                                      const CliffRule&, float*);
 
 // 64 labels at a time, then 8 (labelBits), then one.
-KP_CLONES int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
+int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
 {
   int u = 0;
   for (; u + 64 <= w; u += 64)
@@ -185,7 +184,7 @@ KP_CLONES int firstLabelled(const std::uint8_t* __restrict lab, int w, std::uint
   return u;
 }
 
-KP_CLONES int lastLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
+int lastLabelled(const std::uint8_t* __restrict lab, int w, std::uint8_t l)
 {
   int u = w;
   for (; u >= 64; u -= 64)
@@ -228,13 +227,13 @@ void RowBinner::bin(int r, int a, int b, int n, const SpanPlan& plan, BinScratch
       p_.spanRanges(r, a, b, s.z.data(), range);
     if constexpr (std::is_same_v<Acc, MinInto>)
     {
-      if (vector_ && pullNearest(range, lo, hi, n, acc.bins + plan.first))
-        return;
+      if (vector_)
+        return pullNearest(range, lo, hi, n, acc.bins + plan.first);
     }
     else if constexpr (std::is_same_v<Acc, MinCountInto>)
     {
-      if (vector_ && pullNearest(range, lo, hi, n, acc.bins + plan.first, acc.counts + plan.first))
-        return;
+      if (vector_)
+        return pullNearest(range, lo, hi, n, acc.bins + plan.first, acc.counts + plan.first);
     }
     pullBins(range, lo, hi, n, plan.first, acc);
     return;

@@ -92,7 +92,8 @@ struct KeptDepths
 class RowBinner
 {
 public:
-  /** @param paths binning: every row by its centres' bearings (the reference path); portable: no AVX-512 pull */
+  /** @param paths binning: every row by its centres' bearings (the reference path); portable: the
+   *  pull's plain reference instead of its SIMD kernel */
   RowBinner(const ScanProjector& projector, int width, const ReferencePaths& paths)
       : p_(projector), width_(width), centres_only_(paths.binning), vector_(!paths.portable)
   {
@@ -122,7 +123,7 @@ private:
   const ScanProjector& p_;
   int width_;
   bool centres_only_;
-  bool vector_;  ///< the AVX-512 pull (detail::pullNearest) where the CPU has it
+  bool vector_;  ///< the SIMD pull (detail::pullNearest); false: its plain reference, bin by bin
 };
 
 /**

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 
-#include "base/simd.h"
 #include "kinect_pipeline/stages/scan.h"
 
 namespace kinect_pipeline
@@ -49,7 +48,7 @@ void mergeCliff(const std::vector<const BinScratch*>& team, int beams, const Con
 }
 
 // Selects, in whole vectors.
-KP_CLONES void rep117(float* __restrict ranges, int n, float cov_lo, float cov_hi, float range_min, float range_max)
+void rep117(float* __restrict ranges, int n, float cov_lo, float cov_hi, float range_min, float range_max)
 {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int b = 0; b < n; ++b)
@@ -88,7 +87,7 @@ namespace
 {
 // Confidence::apply's sums over the window, beam by beam in the order of the window's slots (k outer, so that the
 // loop runs over beams in whole vectors), NaN slots left out.
-KP_CLONES void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
+void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
                           std::int32_t* __restrict n)
 {
   for (int b = 0; b < beams; ++b)
@@ -109,7 +108,7 @@ KP_CLONES void windowSums(const float* __restrict history, int beams, int window
 }
 
 // Intensity of each beam from its window's mean (see Confidence), NaN for filtered beams. Selects, no branches.
-KP_CLONES void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
+void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
                              int beams, float distance, float min_intensity, bool filter, float* __restrict out)
 {
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();

@@ -1,8 +1,15 @@
 // ScanProjector (stages/scan.h): the geometry of the scan binning, bins of pixel centres and of the bins' border
-// crossings. Design notes: docs/core_design.md ("The scan").
+// crossings, and the scan's SIMD kernels (stages/scan/scan_kernels.h), compiled once per target. Design notes:
+// docs/core_design.md ("The scan"; "SIMD kernels and their references").
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "stages/scan/scan.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
 #include "kinect_pipeline/stages/scan.h"
 
 #include "base/simd.h"
+#include "stages/scan/scan_kernels.h"
 
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/pose.h"
@@ -11,8 +18,288 @@
 #include <cmath>
 #include <limits>
 
+HWY_BEFORE_NAMESPACE();
 namespace kinect_pipeline
 {
+namespace detail
+{
+namespace HWY_NAMESPACE
+{
+namespace hn = hwy::HWY_NAMESPACE;
+namespace
+{
+// Restrict parameters of a small function: the loops vectorise without a runtime alias check.
+void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
+                 float inv, float* __restrict out)
+{
+  for (int e = e0; e <= e1; ++e)
+    out[e] = rayBin(xe[e], ax, ay, bx, by, lo, inv);
+}
+
+// Range per metre of depth of the ray (x, y) of the horizontal projection, times the depth z.
+__attribute__((always_inline)) inline float rayRange(float x, float y, float z) { return z * std::sqrt(x * x + y * y); }
+
+// The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
+void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
+                        float inv, float beams, const float* __restrict z, float* __restrict fb,
+                        std::int32_t* __restrict key, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+    const float f = rayBin(xn[u], ax, ay, bx, by, lo, inv);
+    fb[u] = f;
+    key[u] = binKey(f, beams);
+    range[u] = rayRange(x, y, z[u]);
+  }
+}
+
+void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                         const float* __restrict z, float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
+}
+
+// The squared ranges of a cleaned row: (depth of each kept pixel, +Inf for removed ones)^2 (X^2 + Y^2). No square
+// root per pixel: the nearest squared range of a bin is the square of its nearest range, rooted once per beam.
+template <typename T>
+void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
+                             const T* __restrict row, float scale, float* __restrict range)
+{
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const float z = keptMetres(row[u], scale);
+      const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
+      range[u] = (z * z) * (x * x + y * y);
+    }
+  });
+}
+
+// keptRangeLoop of a row without roll (ax = 0, ay = -1, by = 0): X = 0 xn + bx = bx and Y = -xn exactly, so
+// X^2 + Y^2 = bx^2 + xn^2 with xn^2 from a table: the same bits with two operations fewer per pixel.
+template <typename T>
+void keptRangeLoopLevel(const float* __restrict xn2, int u0, int u1, float bx, const T* __restrict row,
+                                  float scale, float* __restrict range)
+{
+  const float bx2 = bx * bx;
+  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
+    for (int u = s; u < s + n; ++u)
+    {
+      const float z = keptMetres(row[u], scale);
+      range[u] = (z * z) * (bx2 + xn2[u]);
+    }
+  });
+}
+
+// A column position clamped to [lo, hi] (NaN to lo).
+__attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
+{
+  g = g > lo ? g : lo;
+  return g < hi ? g : hi;
+}
+
+// Pixels of each bin j < n from the columns where its borders j, j + 1 cross the row (crossing(), border terms
+// p[j], q[j]), clipped to a..b. Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A
+// bin with no centre (narrower than a pixel) gets the centre nearest to its middle, taken halfway between the
+// border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
+template <bool kUp, bool kRoll>
+void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
+                         int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
+{
+  const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
+  overlappedBlocks<32>(0, n, [&](int s, int m) {
+    for (int j = s; j < s + m; ++j)
+    {
+      const float g0 = clampIn(crossing<kRoll>(p[j], q[j], bx, by, cx), gl, gh);
+      const float g1 = clampIn(crossing<kRoll>(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
+      // The middle's centre, floor(x) for x = 0.5 (g0 + g1) + 0.5, is needed for empty bins only: both crossings
+      // then lie within one pixel spacing (up: (C - 1, C], C = ceil(g0); fall: [F, F + 1), F = floor(g0)), so
+      // floor(x) is C - 1 or C (F or F + 1) and one compare with C (F + 1) finds it, without rounding x.
+      const float x = 0.5f * (g0 + g1) + 0.5f;
+      std::int32_t l, h, mid;
+      if constexpr (kUp)
+      {
+        const float c0 = std::ceil(g0);
+        l = static_cast<std::int32_t>(c0);
+        h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
+        mid = l - 1 + (x >= c0);
+      }
+      else
+      {
+        const float f0 = std::floor(g0);
+        l = static_cast<std::int32_t>(std::floor(g1)) + 1;
+        h = static_cast<std::int32_t>(f0);
+        mid = h + (x >= f0 + 1.0f);
+      }
+      const bool empty = l > h;
+      l = empty ? mid : l;
+      h = empty ? mid : h;
+      lo[j] = l < a ? a : l;
+      hi[j] = h > b ? b : h;
+    }
+  });
+}
+
+
+// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored (a min that keeps the nearest so far). With
+// count, *count also gains the number of finite ranges among them.
+inline float nearestOf(const float* range, int l, int h, std::int32_t* count)
+{
+  float v = std::numeric_limits<float>::infinity();
+  for (int u = l; u <= h; ++u)
+  {
+    v = range[u] < v ? range[u] : v;
+    if (count)
+      *count += range[u] < std::numeric_limits<float>::infinity();
+  }
+  return v;
+}
+
+// Lane i of the 2N ranges w0, w1 (i < 2N; the lookups take i mod N).
+template <class DF, class VF, class VI>
+HWY_INLINE VF lookup2(DF df, VF w0, VF w1, VI i)
+{
+#if HWY_TARGET == HWY_AVX3
+  (void)df;
+  return VF{_mm512_permutex2var_ps(w0.raw, i.raw, w1.raw)};  // one instruction: Highway 1.0 has no two-table lookup
+#else
+  const hn::RebindToSigned<DF> di;
+  const auto n = hn::Set(di, static_cast<std::int32_t>(hn::Lanes(df)));
+  const auto k = hn::And(i, hn::Sub(n, hn::Set(di, 1)));
+  const auto a = hn::TableLookupLanes(w0, hn::IndicesFromVec(df, k));
+  const auto b = hn::TableLookupLanes(w1, hn::IndicesFromVec(df, k));
+  return hn::IfThenElse(hn::RebindMask(df, hn::Lt(i, n)), a, b);
+#endif
+}
+
+// pullNearest, N bins at a time (N float lanes): their pixels lie within 2N columns (a bin holds about one pixel),
+// so two vector loads and a two-table lookup per pixel rank fetch them; chunks whose pixels spread wider take the
+// scalar nearestOf. The last chunk overlaps the one before: min is idempotent, and its counts take only the new
+// lanes. Rows of fewer than N bins: scalar.
+template <bool kCount>
+void pullChunks(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+                std::int32_t* counts)
+{
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int N = static_cast<int>(hn::Lanes(df));
+  const auto one = hn::Set(di, 1);
+  const auto inf = hn::Set(df, std::numeric_limits<float>::infinity());
+  const auto chunk = [&](int j, int fresh) {  // bins j .. j + N - 1; the first N - fresh are done already
+    const auto l = hn::LoadU(di, lo + j), h = hn::LoadU(di, hi + j);
+    const auto cnt = hn::Sub(hn::Add(h, one), l);  // pixels per bin
+    const auto some = hn::Gt(cnt, hn::Zero(di));
+    if (hn::AllFalse(di, some))
+      return;
+    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
+    const int base = std::min(lo[j], lo[j + N - 1]), top = std::max(hi[j], hi[j + N - 1]);
+    const auto out = hn::And(some, hn::Or(hn::Lt(l, hn::Set(di, base)), hn::Gt(h, hn::Set(di, top))));
+    if (top - base >= 2 * N || !hn::AllFalse(di, out))
+    {
+      for (int i = j + N - fresh; i < j + N; ++i)
+      {
+        const float v = nearestOf(range, lo[i], hi[i], kCount ? counts + i : nullptr);
+        bins[i] = v < bins[i] ? v : bins[i];
+      }
+      for (int i = j; i < j + N - fresh; ++i)  // their min again (idempotent), not their counts
+      {
+        const float v = nearestOf(range, lo[i], hi[i], nullptr);
+        bins[i] = v < bins[i] ? v : bins[i];
+      }
+      return;
+    }
+    const auto w0 = hn::LoadU(df, range + base), w1 = hn::LoadU(df, range + base + N);
+    auto idx = hn::Sub(l, hn::Set(di, base));
+    auto v = inf;
+    auto finite = hn::Zero(di);
+    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
+    // always at its start.
+    for (int c = 0;; ++c, idx = hn::Add(idx, one))
+    {
+      const auto m = hn::RebindMask(df, hn::Gt(cnt, hn::Set(di, c)));
+      if (c >= 2 && hn::AllFalse(df, m))
+        break;
+      const auto x = lookup2(df, w0, w1, idx);
+      if constexpr (kCount)  // NaN and +Inf are not finite
+        finite = hn::Sub(finite, hn::VecFromMask(di, hn::RebindMask(di, hn::And(m, hn::Lt(x, inf)))));
+      v = hn::IfThenElse(hn::And(m, hn::Lt(x, v)), x, v);  // NaN ranges ignored, as nearestOf ignores them
+    }
+    const auto old = hn::LoadU(df, bins + j);
+    hn::StoreU(hn::IfThenElse(hn::Lt(v, old), v, old), df, bins + j);
+    if constexpr (kCount)
+    {
+      const auto fresh_lanes = hn::Not(hn::FirstN(di, static_cast<std::size_t>(N - fresh)));
+      const auto add = hn::IfThenElseZero(fresh_lanes, finite);
+      hn::StoreU(hn::Add(hn::LoadU(di, counts + j), add), di, counts + j);
+    }
+  };
+  if (n < N)
+  {
+    for (int i = 0; i < n; ++i)
+    {
+      const float v = nearestOf(range, lo[i], hi[i], kCount ? counts + i : nullptr);
+      bins[i] = v < bins[i] ? v : bins[i];
+    }
+    return;
+  }
+  int j = 0;
+  for (; j + N <= n; j += N)
+    chunk(j, N);
+  if (j < n)
+    chunk(n - N, n - j);
+}
+
+void pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+                 std::int32_t* counts)
+{
+  if (counts)
+    pullChunks<true>(range, lo, hi, n, bins, counts);
+  else
+    pullChunks<false>(range, lo, hi, n, bins, nullptr);
+}
+
+// The column projection's: each column's bin position and range factor.
+void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
+                          const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
+                          float* __restrict range)
+{
+  for (int u = u0; u <= u1; ++u)
+  {
+    fb[u] = cb[u];
+    key[u] = binKey(cb[u], beams);
+    range[u] = z[u] * k[u];
+  }
+}
+}  // namespace
+
+const ScanKernels kScanKernels = {
+    edgeBinLoop,
+    spanLoop,
+    rangeLoop,
+    columnLoop,
+    {{pixelLoop<false, false>, pixelLoop<false, true>}, {pixelLoop<true, false>, pixelLoop<true, true>}},
+    pullNearest,
+    {keptRangeLoop<std::uint8_t>, keptRangeLoopLevel<std::uint8_t>},
+    {keptRangeLoop<std::uint16_t>, keptRangeLoopLevel<std::uint16_t>},
+    {keptRangeLoop<float>, keptRangeLoopLevel<float>},
+};
+const ScanKernels* scanKernelTable() { return &kScanKernels; }
+}  // namespace HWY_NAMESPACE
+}  // namespace detail
+}  // namespace kinect_pipeline
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace kinect_pipeline
+{
+namespace detail
+{
+HWY_EXPORT(scanKernelTable);
+const ScanKernels& scanKernels() { return *HWY_DYNAMIC_DISPATCH(scanKernelTable)(); }
+}  // namespace detail
+
 namespace
 {
 // atan2 within kCoarseAtanError rad (max 6.1e-4 on [0, 1] for the polynomial: a least-max-error fit of degree 5),
@@ -133,255 +420,9 @@ const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
   return buffer;
 }
 
-namespace
-{
-// Restrict parameters of a small function: the loops vectorise without a runtime alias check.
-KP_CLONES void edgeBinLoop(const float* __restrict xe, int e0, int e1, float ax, float ay, float bx, float by, float lo,
-                 float inv, float* __restrict out)
-{
-  for (int e = e0; e <= e1; ++e)
-    out[e] = rayBin(xe[e], ax, ay, bx, by, lo, inv);
-}
-
-// Range per metre of depth of the ray (x, y) of the horizontal projection, times the depth z.
-__attribute__((always_inline)) inline float rayRange(float x, float y, float z) { return z * std::sqrt(x * x + y * y); }
-
-// The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
-KP_CLONES void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
-                        float inv, float beams, const float* __restrict z, float* __restrict fb,
-                        std::int32_t* __restrict key, float* __restrict range)
-{
-  for (int u = u0; u <= u1; ++u)
-  {
-    const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-    const float f = rayBin(xn[u], ax, ay, bx, by, lo, inv);
-    fb[u] = f;
-    key[u] = binKey(f, beams);
-    range[u] = rayRange(x, y, z[u]);
-  }
-}
-
-KP_CLONES void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
-                         const float* __restrict z, float* __restrict range)
-{
-  for (int u = u0; u <= u1; ++u)
-    range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
-}
-
-// The squared ranges of a cleaned row: (depth of each kept pixel, +Inf for removed ones)^2 (X^2 + Y^2). No square
-// root per pixel: the nearest squared range of a bin is the square of its nearest range, rooted once per beam.
-template <typename T>
-KP_CLONES void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
-                             const T* __restrict row, float scale, float* __restrict range)
-{
-  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
-    for (int u = s; u < s + n; ++u)
-    {
-      const float z = keptMetres(row[u], scale);
-      const float x = ax * xn[u] + bx, y = ay * xn[u] + by;
-      range[u] = (z * z) * (x * x + y * y);
-    }
-  });
-}
-
-// keptRangeLoop of a row without roll (ax = 0, ay = -1, by = 0): X = 0 xn + bx = bx and Y = -xn exactly, so
-// X^2 + Y^2 = bx^2 + xn^2 with xn^2 from a table: the same bits with two operations fewer per pixel.
-template <typename T>
-KP_CLONES void keptRangeLoopLevel(const float* __restrict xn2, int u0, int u1, float bx, const T* __restrict row,
-                                  float scale, float* __restrict range)
-{
-  const float bx2 = bx * bx;
-  overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
-    for (int u = s; u < s + n; ++u)
-    {
-      const float z = keptMetres(row[u], scale);
-      range[u] = (z * z) * (bx2 + xn2[u]);
-    }
-  });
-}
-
-// The column at which the bearing of border k crosses the row (bx, by): cx + fx (bx s - by c) / (ay c - ax s)
-// with the pose's terms P = fx s / den, Q = fx c / den (ScanProjector::setPose). The one formula of a crossing;
-// without roll (by = 0) the product by q is a zero, and bx p - 0 is bx p: kRoll false leaves it out, same bits.
-template <bool kRoll>
-__attribute__((always_inline)) inline float crossing(float p, float q, float bx, float by, float cx)
-{
-  if constexpr (kRoll)
-    return cx + (bx * p - by * q);
-  else
-    return cx + bx * p;
-}
-
-// A column position clamped to [lo, hi] (NaN to lo).
-__attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
-{
-  g = g > lo ? g : lo;
-  return g < hi ? g : hi;
-}
-
-// Pixels of each bin j < n from the columns where its borders j, j + 1 cross the row (crossing(), border terms
-// p[j], q[j]), clipped to a..b. Bearings grow with the column (up): centres g0 <= u < g1; fall: g1 < u <= g0. A
-// bin with no centre (narrower than a pixel) gets the centre nearest to its middle, taken halfway between the
-// border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
-template <bool kUp, bool kRoll>
-KP_CLONES void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
-                         int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
-{
-  const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
-  overlappedBlocks<32>(0, n, [&](int s, int m) {
-    for (int j = s; j < s + m; ++j)
-    {
-      const float g0 = clampIn(crossing<kRoll>(p[j], q[j], bx, by, cx), gl, gh);
-      const float g1 = clampIn(crossing<kRoll>(p[j + 1], q[j + 1], bx, by, cx), gl, gh);
-      // The middle's centre, floor(x) for x = 0.5 (g0 + g1) + 0.5, is needed for empty bins only: both crossings
-      // then lie within one pixel spacing (up: (C - 1, C], C = ceil(g0); fall: [F, F + 1), F = floor(g0)), so
-      // floor(x) is C - 1 or C (F or F + 1) and one compare with C (F + 1) finds it, without rounding x.
-      const float x = 0.5f * (g0 + g1) + 0.5f;
-      std::int32_t l, h, mid;
-      if constexpr (kUp)
-      {
-        const float c0 = std::ceil(g0);
-        l = static_cast<std::int32_t>(c0);
-        h = static_cast<std::int32_t>(std::ceil(g1)) - 1;
-        mid = l - 1 + (x >= c0);
-      }
-      else
-      {
-        const float f0 = std::floor(g0);
-        l = static_cast<std::int32_t>(std::floor(g1)) + 1;
-        h = static_cast<std::int32_t>(f0);
-        mid = h + (x >= f0 + 1.0f);
-      }
-      const bool empty = l > h;
-      l = empty ? mid : l;
-      h = empty ? mid : h;
-      lo[j] = l < a ? a : l;
-      hi[j] = h > b ? b : h;
-    }
-  });
-}
-
-// The nearest of range[l..h] (+Inf if l > h); NaN ranges are ignored (a min that keeps the nearest so far).
-inline float nearestOf(const float* range, int l, int h)
-{
-  float v = std::numeric_limits<float>::infinity();
-  for (int u = l; u <= h; ++u)
-    v = range[u] < v ? range[u] : v;
-  return v;
-}
-
-#if defined(KP_AVX512_PATHS)
-#pragma GCC diagnostic push
-#if !defined(__clang__)
-// GCC 12's _mm512_min_ps passes _mm512_undefined_ps() as its unused source: a false "may be used uninitialized".
-#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
-#endif
-// 16 bins at a time: their pixels lie within 32 columns (a bin holds about one pixel), so two vector loads and a
-// two-register permute per pixel rank fetch them. (Fused with pixelLoop, the columns of a chunk come at the end of
-// a long chain of dependent operations and each branch on them waits for it: slower, by perf.)
-// With kCount, counts[j] also gains the number of finite ranges among bin j's pixels (MinCountInto's count).
-template <bool kCount>
-KP_TARGET_AVX512 inline __m512 rankMin(__m512 v, __mmask16 m, __m512 w0, __m512i idx, __m512 w1, __m512i& finite)
-{
-  const __m512 x = _mm512_permutex2var_ps(w0, idx, w1);
-  if constexpr (kCount)
-  {
-    const __mmask16 f = _mm512_mask_cmp_ps_mask(m, x, _mm512_set1_ps(std::numeric_limits<float>::infinity()),
-                                                _CMP_LT_OQ);  // NaN and +Inf: no
-    finite = _mm512_mask_add_epi32(finite, f, finite, _mm512_set1_epi32(1));
-  }
-  // min(x, v) takes v where x is NaN: NaN ranges are ignored, as nearestOf ignores them.
-  return _mm512_mask_min_ps(v, m, x, v);
-}
-
-template <bool kCount>
-KP_TARGET_AVX512 void pullMin512(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n,
-                                 float* bins, std::int32_t* counts)
-{
-  const __m512i one = _mm512_set1_epi32(1);
-  const __m512 inf = _mm512_set1_ps(std::numeric_limits<float>::infinity());
-  for (int j = 0; j < n; j += 16)
-  {
-    const __mmask16 live = n - j >= 16 ? static_cast<__mmask16>(0xFFFF) : static_cast<__mmask16>((1u << (n - j)) - 1u);
-    // Whole loads and stores where the chunk is full: a masked load waits for the stores before it (pixelLoop's,
-    // the previous row's pull) to reach the cache instead of taking their data (by perf: a third of the pull).
-    const bool full = live == 0xFFFF;
-    const __m512i l = full ? _mm512_loadu_si512(lo + j) : _mm512_maskz_loadu_epi32(live, lo + j);
-    const __m512i h = full ? _mm512_loadu_si512(hi + j) : _mm512_maskz_loadu_epi32(live, hi + j);
-    const __m512i cnt = _mm512_maskz_sub_epi32(live, _mm512_add_epi32(h, one), l);  // pixels per bin, 0 for none
-    const __mmask16 some = _mm512_cmpgt_epi32_mask(cnt, _mm512_setzero_si512());
-    if (some == 0)
-      continue;
-    // lo and hi grow (or fall) with the bin: the window is set by the chunk's end bins, and checked.
-    const int last = std::min(15, n - j - 1);
-    const int base = std::min(lo[j], lo[j + last]);
-    const int top = std::max(hi[j], hi[j + last]);
-    const __mmask16 out = _mm512_mask_cmplt_epi32_mask(some, l, _mm512_set1_epi32(base)) |
-                          _mm512_mask_cmpgt_epi32_mask(some, h, _mm512_set1_epi32(top));
-    if (top - base >= 32 || out != 0)
-    {
-      for (int i = j; i <= j + last; ++i)
-      {
-        const float v = nearestOf(range, lo[i], hi[i]);
-        bins[i] = v < bins[i] ? v : bins[i];
-        if constexpr (kCount)
-          for (int u = lo[i]; u <= hi[i]; ++u)
-            counts[i] += range[u] < std::numeric_limits<float>::infinity();
-      }
-      continue;
-    }
-    const __m512 w0 = _mm512_loadu_ps(range + base), w1 = _mm512_loadu_ps(range + base + 16);
-    __m512i idx = _mm512_sub_epi32(l, _mm512_set1_epi32(base));
-    __m512i finite = _mm512_setzero_si512();
-    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
-    // always at its start.
-    __m512 v = rankMin<kCount>(inf, some, w0, idx, w1, finite);
-    idx = _mm512_add_epi32(idx, one);
-    v = rankMin<kCount>(v, _mm512_cmpgt_epi32_mask(cnt, one), w0, idx, w1, finite);
-    for (int c = 2;; ++c)
-    {
-      const __mmask16 m = _mm512_cmpgt_epi32_mask(cnt, _mm512_set1_epi32(c));
-      if (m == 0)
-        break;
-      idx = _mm512_add_epi32(idx, one);
-      v = rankMin<kCount>(v, m, w0, idx, w1, finite);
-    }
-    if (full)
-    {
-      _mm512_storeu_ps(bins + j, _mm512_min_ps(v, _mm512_loadu_ps(bins + j)));
-      if constexpr (kCount)
-        _mm512_storeu_si512(counts + j, _mm512_add_epi32(finite, _mm512_loadu_si512(counts + j)));
-    }
-    else
-    {
-      const __m512 old = _mm512_maskz_loadu_ps(live, bins + j);
-      _mm512_mask_storeu_ps(bins + j, live, _mm512_min_ps(v, old));
-      if constexpr (kCount)
-        _mm512_mask_storeu_epi32(counts + j, live, _mm512_add_epi32(finite, _mm512_maskz_loadu_epi32(live, counts + j)));
-    }
-  }
-}
-#pragma GCC diagnostic pop
-#endif
-
-// The column projection's: each column's bin position and range factor.
-KP_CLONES void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
-                          const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
-                          float* __restrict range)
-{
-  for (int u = u0; u <= u1; ++u)
-  {
-    fb[u] = cb[u];
-    key[u] = binKey(cb[u], beams);
-    range[u] = z[u] * k[u];
-  }
-}
-
-}  // namespace
-
 void ScanProjector::edgeBins(int r, int e0, int e1, float* out) const
 {
-  edgeBinLoop(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
+  detail::scanKernels().edge_bins(xe_.data(), e0, e1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, out);
 }
 
 void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* fb, std::int32_t* key,
@@ -389,23 +430,25 @@ void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* f
 {
   const float beams = static_cast<float>(beams_);
   if (projection_ == Projection::kColumn)
-    columnLoop(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
+    detail::scanKernels().columns(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
   else
-    spanLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth, fb, key, range);
+    detail::scanKernels().span_bins(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth,
+                                    fb, key, range);
 }
 
 void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float* range) const
 {
-  rangeLoop(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
+  detail::scanKernels().ranges(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], depth, range);
 }
 
 template <typename T>
 void ScanProjector::spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
 {
+  const detail::KeptRangeKernels<T>& k = detail::scanKernels().kept<T>();
   if (ax_ == 0.0f && ay_ == -1.0f && by_[r] == 0.0f)
-    keptRangeLoopLevel<T>(xn2_.data(), u0, u1, bx_[r], row, scale, range);
+    k.level(xn2_.data(), u0, u1, bx_[r], row, scale, range);
   else
-    keptRangeLoop<T>(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
+    k.any(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], row, scale, range);
 }
 template void ScanProjector::spanKeptSquaredRanges<std::uint8_t>(int, int, int, const std::uint8_t*, float, float*) const;
 template void ScanProjector::spanKeptSquaredRanges<std::uint16_t>(int, int, int, const std::uint16_t*, float, float*) const;
@@ -461,7 +504,7 @@ int ScanProjector::spanPlan(int r, int a, int b, SpanPlan& plan) const
   for (int e = 0; e < 2; ++e)
   {
     const int i = e == 0 ? 0 : n;
-    g[e] = crossing<true>(p[i], q[i], bx, by, cx_);
+    g[e] = detail::crossing<true>(p[i], q[i], bx, by, cx_);
     const float xn = (g[e] - cx_) * inv_fx_;
     if (!(std::fabs(den[i]) > 1e-6f) || !std::isfinite(g[e]) ||
         !((ax * xn + bx) * c[i] + (ay * xn + by) * s[i] > 0.0f))
@@ -487,36 +530,14 @@ int ScanProjector::spanPixels(int r, int a, int b, std::int32_t* lo, std::int32_
 
 void ScanProjector::planPixels(const SpanPlan& s, std::int32_t* lo, std::int32_t* hi)
 {
-  const bool roll = s.by != 0.0f;
-  if (s.up)
-    (roll ? pixelLoop<true, true> : pixelLoop<true, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
-  else
-    (roll ? pixelLoop<false, true> : pixelLoop<false, false>)(s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
+  detail::scanKernels().pixels[s.up][s.by != 0.0f](s.p, s.q, s.n, s.bx, s.by, s.cx, s.a, s.b, lo, hi);
 }
 
-bool detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
+void detail::pullNearest(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
                          std::int32_t* counts)
 {
-#if defined(KP_AVX512_PATHS)
-  if (!vectorPathsSupported())
-    return false;
-  if (counts)
-    pullMin512<true>(range, lo, hi, n, bins, counts);
-  else
-    pullMin512<false>(range, lo, hi, n, bins, nullptr);
-  return true;
-#else
-  (void)range;
-  (void)lo;
-  (void)hi;
-  (void)n;
-  (void)bins;
-  (void)counts;
-  return false;
-#endif
+  scanKernels().pull(range, lo, hi, n, bins, counts);
 }
-
-bool detail::vectorPathsAvailable() { return vectorPathsSupported(); }
 
 void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
 {
@@ -545,3 +566,4 @@ void ScanProjector::coverage(float& lo, float& hi) const
 }
 
 }  // namespace kinect_pipeline
+#endif  // HWY_ONCE

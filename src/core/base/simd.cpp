@@ -1,0 +1,99 @@
+// The SIMD target's names and its restriction (kinect_pipeline/simd.h) on Highway's run-time dispatch.
+#include "kinect_pipeline/simd.h"
+
+#include <cstdint>
+#include <cstdlib>
+#include <mutex>
+#include <stdexcept>
+#include <utility>
+
+#include <hwy/targets.h>
+
+#include "base/simd.h"
+
+namespace kinect_pipeline
+{
+namespace
+{
+// Our names of Highway's targets, best first. AVX3 is x86-64-v4's AVX-512 (F, BW, DQ, VL). The plain C++ one is
+// EMU128 (vectors of 16 bytes) or, under GCC before 12.3 (a GCC bug), SCALAR (vectors of one lane).
+const std::pair<std::int64_t, const char*> kNames[] = {
+    {HWY_AVX3, "avx512"}, {HWY_AVX2, "avx2"}, {HWY_SSE4, "sse4"},     {HWY_SVE2, "sve2"},
+    {HWY_SVE, "sve"},     {HWY_NEON, "neon"}, {HWY_EMU128, "scalar"}, {HWY_SCALAR, "scalar"}};
+
+// The targets the core is built for that the CPU has, whatever the restriction.
+std::int64_t cpuTargets()
+{
+  static const std::int64_t cpu = hwy::SupportedTargets() & HWY_TARGETS;  // before any restriction
+  return cpu;
+}
+
+std::string joined(const std::vector<std::string>& names)
+{
+  std::string s;
+  for (const std::string& n : names)
+    s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+}  // namespace
+
+std::vector<std::string> simdTargets()
+{
+  std::vector<std::string> names;
+  for (const auto& [bit, name] : kNames)
+    if (cpuTargets() & bit)
+      names.emplace_back(name);
+  return names;
+}
+
+std::string simdTarget()
+{
+  detail::simdFromEnvironment();
+  const std::int64_t now = hwy::SupportedTargets() & HWY_TARGETS;
+  for (const auto& [bit, name] : kNames)
+    if (now & bit)
+      return name;
+  return "scalar";
+}
+
+void restrictSimd(const std::string& target)
+{
+  const std::int64_t cpu = cpuTargets();
+  if (target == "native")
+  {
+    hwy::SetSupportedTargetsForTest(0);
+    hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+    return;
+  }
+  for (const auto& [bit, name] : kNames)
+    if (target == name && (cpu & bit))
+    {
+      hwy::SetSupportedTargetsForTest(bit);
+      hwy::GetChosenTarget().Update(hwy::SupportedTargets());
+      return;
+    }
+  throw std::invalid_argument("SIMD target '" + target + "': expected native or one this CPU has (" +
+                              joined(simdTargets()) + ")");
+}
+
+void detail::simdFromEnvironment()
+{
+  static std::once_flag once;
+  static std::string problem;
+  std::call_once(once, [] {
+    const char* env = std::getenv("KINECT_PIPELINE_SIMD");
+    if (env == nullptr || *env == '\0')
+      return;
+    try
+    {
+      restrictSimd(env);
+    }
+    catch (const std::invalid_argument& e)
+    {
+      problem = std::string("KINECT_PIPELINE_SIMD: ") + e.what();
+    }
+  });
+  if (!problem.empty())
+    throw std::invalid_argument(problem);
+}
+}  // namespace kinect_pipeline

@@ -1,0 +1,212 @@
+// The SIMD kernel of the labelling by value (stages/labels/split_row.h), compiled once per target: the compares
+// as masks, labels and flags built from them, counts per lane summed once per row. Design notes:
+// docs/core_design.md ("SIMD kernels and their references").
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "stages/labels/split_row.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include "stages/labels/split_row.h"
+
+#include <cstdint>
+#include <type_traits>
+
+#include "kinect_pipeline/model/encoding.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace kinect_pipeline
+{
+namespace detail
+{
+namespace HWY_NAMESPACE
+{
+namespace hn = hwy::HWY_NAMESPACE;
+namespace
+{
+// The sum of a vector of per-lane counts.
+template <class D, class V>
+HWY_INLINE int total(D d, V c)
+{
+#if HWY_TARGET == HWY_SCALAR
+  (void)d;
+  return static_cast<int>(hn::GetLane(c));
+#else
+  if constexpr (sizeof(hn::TFromD<D>) == 1)
+  {
+    const hn::Repartition<std::uint64_t, D> d64;
+    return static_cast<int>(hn::GetLane(hn::SumOfLanes(d64, hn::SumsOf8(c))));
+  }
+  else
+  {
+    const hn::Repartition<std::uint32_t, D> d32;
+    const auto w = hn::BitCast(d32, c);
+    const auto pairs = hn::Add(hn::ShiftRight<16>(w), hn::And(w, hn::Set(d32, 0xFFFFu)));
+    return static_cast<int>(hn::GetLane(hn::SumOfLanes(d32, pairs)));
+  }
+#endif
+}
+
+// Where pixels of one label first and last appear: the first column, and the last block holding one.
+template <class D>
+struct Track
+{
+  int first = -1, at = -1;
+  hn::Mask<D> last;
+  HWY_INLINE void add(D d, hn::Mask<D> m, int u)
+  {
+    if (hn::AllFalse(d, m))
+      return;
+    if (first < 0)
+      first = u + static_cast<int>(hn::FindFirstTrue(d, m));
+    at = u;
+    last = m;
+  }
+  HWY_INLINE int lastColumn(D d) const
+  {
+    if (at < 0)
+      return -1;
+    std::uint8_t bits[8] = {};  // one bit per lane, up to 64 lanes
+    hn::StoreMaskBits(d, last, bits);
+    int k = static_cast<int>(hn::Lanes(d)) - 1;
+    while (!(bits[k / 8] >> (k % 8) & 1))
+      --k;
+    return at + k;
+  }
+};
+
+// Stores a vector of small values (labels, flags) as bytes.
+template <class D, class V>
+HWY_INLINE void storeBytes(D d, V v, std::uint8_t* p)
+{
+  if constexpr (sizeof(hn::TFromD<D>) == 1)
+    hn::StoreU(v, d, p);
+  else
+  {
+    const hn::Rebind<std::uint8_t, D> d8;
+    hn::StoreU(hn::DemoteTo(d8, hn::BitCast(hn::RebindToSigned<D>(), v)), d8, p);  // values below 128
+  }
+}
+
+template <typename T, bool kRescue>
+RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
+                    std::uint8_t* cand)
+{
+  using Tr = DepthTraits<T>;
+  const hn::ScalableTag<T> d;
+  using D = decltype(d);
+  const int L = static_cast<int>(hn::Lanes(d));
+  constexpr T none = Tr::kNoReturn;
+  const bool rescuable = s.t1 < none && (s.l1 == kFloor || s.l1 == kAboveCeiling);
+  const auto set = [&](int x) { return hn::Set(d, static_cast<T>(x)); };
+  const auto t1 = set(s.t1), t2 = set(s.t2), vnone = set(none), rt1 = set(rescuable ? s.t1 : none);
+  const auto minvalid = set(Tr::kMinValid), move1 = set(s.min_move - 1);
+  const auto l1 = set(s.l1), l2 = set(s.l2), linv = set(kInvalid), lkept = set(kKept), lbelow = set(kBelowFloor);
+  // Counts per lane (subtracting a mask's all-ones adds one), summed per row and every 255 blocks (8-bit lanes).
+  auto c1 = hn::Zero(d), c2 = c1, ci = c1, cc = c1;
+  int n1 = 0, n2 = 0, ni = 0, nc = 0;
+  const auto flush = [&]() {
+    n1 += total(d, c1);
+    n2 += total(d, c2);
+    ni += total(d, ci);
+    nc += total(d, cc);
+    c1 = c2 = ci = cc = hn::Zero(d);
+  };
+  Track<D> kept, below;
+  // One block of L pixels from u (counted: the lanes not counted yet).
+  const auto block = [&](int u, hn::Mask<D> counted) {
+    const auto v = hn::LoadU(d, src + u);
+    const auto g1 = hn::Not(hn::Lt(v, t1)), g2 = hn::Not(hn::Lt(v, t2)), inv = hn::Eq(v, vnone);
+    if constexpr (sizeof(T) == 1)
+      hn::StoreU(hn::IfThenElse(g1, vnone, v), d, dst + u);  // removed: 255
+    else
+      hn::StoreU(hn::IfThenZeroElse(g1, v), d, dst + u);  // removed: 0
+    // l1 from t1, + l2 from t2, no return kInvalid (it is >= t1 and >= t2).
+    const auto l = hn::IfThenElse(inv, linv, hn::Add(hn::IfThenElseZero(g1, l1), hn::IfThenElseZero(g2, l2)));
+    storeBytes(d, l, lab + u);
+    c1 = hn::Sub(c1, hn::VecFromMask(d, hn::And(g1, counted)));
+    c2 = hn::Sub(c2, hn::VecFromMask(d, hn::And(g2, counted)));
+    ci = hn::Sub(ci, hn::VecFromMask(d, hn::And(inv, counted)));
+    const auto is_below = hn::Eq(l, lbelow);
+    kept.add(d, hn::Not(g1), u);  // kept: below t1
+    below.add(d, is_below, u);
+    if constexpr (kRescue)
+    {
+      auto raw = hn::LoadU(d, in + u);
+      raw = hn::IfThenElse(hn::Lt(raw, minvalid), vnone, raw);                   // DepthTraits::map
+      const auto above = hn::Gt(raw, hn::SaturatedAdd(v, move1));               // raw - v >= min_move
+      const auto inband = hn::And(hn::Not(hn::Lt(raw, rt1)), hn::Lt(raw, t2));  // rt1 <= raw < t2
+      const auto f = hn::And(hn::Or(hn::Eq(l, lkept), is_below), hn::And(above, inband));
+      storeBytes(d, hn::IfThenElseZero(f, set(1)), cand + u);
+      cc = hn::Sub(cc, hn::VecFromMask(d, hn::And(f, counted)));
+    }
+  };
+  int u = 0, blocks = 0;
+  const auto all = hn::FirstN(d, static_cast<std::size_t>(L));
+  for (; u + L <= w; u += L)
+  {
+    block(u, all);
+    if (sizeof(T) == 1 && ++blocks == 255)
+    {
+      flush();
+      blocks = 0;
+    }
+  }
+  if (u < w)  // the last L pixels again: the lanes before u are counted already
+    block(w - L, hn::Not(hn::FirstN(d, static_cast<std::size_t>(u - (w - L)))));
+  flush();
+  RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
+  c.kept_first = kept.first;
+  c.kept_last = kept.lastColumn(d);
+  c.below_first = below.first;
+  c.below_last = below.lastColumn(d);
+  return c;
+}
+}  // namespace
+
+template <typename T>
+bool splitRow(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
+              std::uint8_t* cand, RowCounts& c)
+{
+  if (w < static_cast<int>(hn::Lanes(hn::ScalableTag<T>())))
+    return false;
+  c = in ? splitRowV<T, true>(src, w, s, lab, dst, in, cand) : splitRowV<T, false>(src, w, s, lab, dst, in, cand);
+  return true;
+}
+bool splitRow8(const std::uint8_t* src, int w, const ValueSplit& s, std::uint8_t* lab, std::uint8_t* dst,
+               const std::uint8_t* in, std::uint8_t* cand, RowCounts& c)
+{
+  return splitRow(src, w, s, lab, dst, in, cand, c);
+}
+bool splitRow16(const std::uint16_t* src, int w, const ValueSplit& s, std::uint8_t* lab, std::uint16_t* dst,
+                const std::uint16_t* in, std::uint8_t* cand, RowCounts& c)
+{
+  return splitRow(src, w, s, lab, dst, in, cand, c);
+}
+}  // namespace HWY_NAMESPACE
+}  // namespace detail
+}  // namespace kinect_pipeline
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace kinect_pipeline
+{
+namespace detail
+{
+HWY_EXPORT(splitRow8);
+HWY_EXPORT(splitRow16);
+
+template <>
+bool splitRowSimd<std::uint8_t>(const std::uint8_t* src, int w, const ValueSplit& s, std::uint8_t* lab,
+                                std::uint8_t* dst, const std::uint8_t* in, std::uint8_t* cand, RowCounts& c)
+{
+  return HWY_DYNAMIC_DISPATCH(splitRow8)(src, w, s, lab, dst, in, cand, c);
+}
+template <>
+bool splitRowSimd<std::uint16_t>(const std::uint16_t* src, int w, const ValueSplit& s, std::uint8_t* lab,
+                                 std::uint16_t* dst, const std::uint16_t* in, std::uint8_t* cand, RowCounts& c)
+{
+  return HWY_DYNAMIC_DISPATCH(splitRow16)(src, w, s, lab, dst, in, cand, c);
+}
+}  // namespace detail
+}  // namespace kinect_pipeline
+#endif  // HWY_ONCE
