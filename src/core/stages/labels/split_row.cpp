@@ -65,14 +65,26 @@ struct Track
   {
     if (at < 0)
       return -1;
-    std::uint8_t bits[8] = {};  // one bit per lane, up to 64 lanes
+    std::uint8_t bits[8] = {};  // one bit per lane (lane i: bit i % 8 of byte i / 8), up to 64 lanes
     hn::StoreMaskBits(d, last, bits);
-    int k = static_cast<int>(hn::Lanes(d)) - 1;
-    while (!(bits[k / 8] >> (k % 8) & 1))
-      --k;
-    return at + k;
+    std::uint64_t word = 0;
+    for (int i = 7; i >= 0; --i)
+      word = word << 8 | bits[i];
+    return at + 63 - __builtin_clzll(word);  // the mask is not empty
   }
 };
+
+// v >= t, unsigned: one mask compare on AVX-512; elsewhere max and an equality (x86 before AVX-512 has no unsigned
+// compare: Highway's takes three or four instructions).
+template <class V>
+HWY_INLINE auto atLeast(V v, V t)
+{
+#if HWY_TARGET == HWY_AVX3
+  return hn::Not(hn::Lt(v, t));
+#else
+  return hn::Eq(hn::Max(v, t), v);
+#endif
+}
 
 // Stores a vector of small values (labels, flags) as bytes.
 template <class D, class V>
@@ -115,7 +127,7 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
   // One block of L pixels from u (counted: the lanes not counted yet).
   const auto block = [&](int u, hn::Mask<D> counted) {
     const auto v = hn::LoadU(d, src + u);
-    const auto g1 = hn::Not(hn::Lt(v, t1)), g2 = hn::Not(hn::Lt(v, t2)), inv = hn::Eq(v, vnone);
+    const auto g1 = atLeast(v, t1), g2 = atLeast(v, t2), inv = hn::Eq(v, vnone);
     if constexpr (sizeof(T) == 1)
       hn::StoreU(hn::IfThenElse(g1, vnone, v), d, dst + u);  // removed: 255
     else
@@ -134,7 +146,7 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
       auto raw = hn::LoadU(d, in + u);
       raw = hn::IfThenElse(hn::Lt(raw, minvalid), vnone, raw);                   // DepthTraits::map
       const auto above = hn::Gt(raw, hn::SaturatedAdd(v, move1));               // raw - v >= min_move
-      const auto inband = hn::And(hn::Not(hn::Lt(raw, rt1)), hn::Lt(raw, t2));  // rt1 <= raw < t2
+      const auto inband = hn::AndNot(atLeast(raw, t2), atLeast(raw, rt1));  // rt1 <= raw < t2
       const auto f = hn::And(hn::Or(hn::Eq(l, lkept), is_below), hn::And(above, inband));
       storeBytes(d, hn::IfThenElseZero(f, set(1)), cand + u);
       cc = hn::Sub(cc, hn::VecFromMask(d, hn::And(f, counted)));

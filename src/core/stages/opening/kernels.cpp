@@ -26,6 +26,7 @@ namespace detail
 {
 namespace HWY_NAMESPACE
 {
+namespace hn = hwy::HWY_NAMESPACE;
 namespace
 {
 template <bool kMin, typename T>
@@ -113,16 +114,106 @@ void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c
   dst[w - 1] = O::back(pick<kMin>(col(w - 2), col(w - 1)));
 }
 
+// The 3x3 case of 8- and 16-bit rows with Highway ops: the column minima (maxima) of the three rows once per
+// pixel, in registers, and their neighbours by shifting a vector by one lane across the previous or next one
+// instead of loading six more rows' worth at offsets of one pixel. Min, max and the order key are exact: the same
+// bits as box3Row. The row ends repeat their pixel (min(x, x) = x), as box3Row's ends leave it out.
+// Highway 1.0 shifts across whole vectors only for 128-bit targets (CombineShiftRightBytes); AVX2 and AVX-512 take
+// two intrinsics each, and other targets (SVE, one-lane scalar) box3Row.
+#undef KP_BOX3_VECTORS  // this file is compiled once per target
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_NEON || \
+    HWY_TARGET == HWY_EMU128
+#define KP_BOX3_VECTORS 1
+template <typename T, class V>
+HWY_INLINE V left1(V cur, V prev)  // [prev's last lane, cur's lanes but the last]: left neighbours
+{
+  constexpr int s = sizeof(T);
+#if HWY_TARGET == HWY_AVX3
+  return V{_mm512_alignr_epi8(cur.raw, _mm512_alignr_epi32(cur.raw, prev.raw, 12), 16 - s)};
+#elif HWY_TARGET == HWY_AVX2
+  return V{_mm256_alignr_epi8(cur.raw, _mm256_permute2x128_si256(prev.raw, cur.raw, 0x21), 16 - s)};
+#else
+  return hn::CombineShiftRightBytes<16 - s>(hn::Full128<T>(), cur, prev);
+#endif
+}
+template <typename T, class V>
+HWY_INLINE V right1(V cur, V next)  // [cur's lanes but the first, next's first lane]: right neighbours
+{
+  constexpr int s = sizeof(T);
+#if HWY_TARGET == HWY_AVX3
+  return V{_mm512_alignr_epi8(_mm512_alignr_epi32(next.raw, cur.raw, 4), cur.raw, s)};
+#elif HWY_TARGET == HWY_AVX2
+  return V{_mm256_alignr_epi8(_mm256_permute2x128_si256(cur.raw, next.raw, 0x21), cur.raw, s)};
+#else
+  return hn::CombineShiftRightBytes<s>(hn::Full128<T>(), next, cur);
+#endif
+}
+
+template <typename T, bool kMin, bool kMap>
+void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
+{
+  using O = MapOrder<T, kMap>;
+  const hn::ScalableTag<T> d;
+  const int L = static_cast<int>(hn::Lanes(d));
+  const auto pickV = [](auto x, auto y) { return kMin ? hn::Min(x, y) : hn::Max(x, y); };
+  constexpr T kSmallest = kMap ? DepthTraits<T>::kMinValid : 0;  // MapOrder's key: v - kSmallest (wrapping)
+  const auto key = [&](const T* p) { return hn::Sub(hn::LoadU(d, p), hn::Set(d, kSmallest)); };
+  const auto back = [&](auto k) {  // MapOrder::back: keys above no-return - smallest were unknown values
+    if constexpr (!kMap)
+      return k;
+    else
+    {
+      constexpr T none = DepthTraits<T>::kNoReturn;
+      const auto unknown = hn::Gt(k, hn::Set(d, static_cast<T>(none - kSmallest)));
+      return hn::IfThenElse(unknown, hn::Set(d, none), hn::Add(k, hn::Set(d, kSmallest)));
+    }
+  };
+  const auto column = [&](int u) { return pickV(pickV(key(a + u), key(b + u)), key(c + u)); };
+  const auto splatColumn = [&](int u) {  // the column of pixel u alone, in every lane
+    return hn::Set(d, pick<kMin>(pick<kMin>(O::key(a[u]), O::key(b[u])), O::key(c[u])));
+  };
+  const int full = w / L * L;
+  auto cur = column(0);
+  auto prev = splatColumn(0);
+  for (int u = 0; u < full; u += L)
+  {
+    // The next whole vector, or (the last one) the pixel after this vector or the row's last pixel repeated.
+    const auto next = u + 2 * L <= w ? column(u + L) : splatColumn(std::min(u + L, w - 1));
+    hn::StoreU(back(pickV(pickV(left1<T>(cur, prev), cur), right1<T>(cur, next))), d, dst + u);
+    prev = cur;
+    cur = next;
+  }
+  if (full < w)  // the last L pixels once more (the same values where they overlap)
+  {
+    const int u = w - L;  // >= 1
+    const auto x = column(u);
+    hn::StoreU(back(pickV(pickV(column(u - 1), x), right1<T>(x, splatColumn(w - 1)))), d, dst + u);
+  }
+}
+#endif
+
+// box3Row from the three rows given (w >= 3): box3Vectors for 8- and 16-bit rows of a vector or more.
+template <typename T, bool kMin, bool kMap>
+void box3Rows(const T* a, const T* b, const T* c, int w, T* dst)
+{
+#if defined(KP_BOX3_VECTORS)
+  if constexpr (!std::is_floating_point_v<T>)
+    if (w >= static_cast<int>(hn::Lanes(hn::ScalableTag<T>())))
+      return box3Vectors<T, kMin, kMap>(a, b, c, w, dst);
+#endif
+  box3Row<T, kMin, kMap>(a, b, c, w, dst);
+}
+
 }  // namespace
 
-// box3Row of row r of src and its neighbours (the row itself at the image's top and bottom).
+// box3Rows of row r of src and its neighbours (the row itself at the image's top and bottom).
 template <typename T, bool kMin, bool kMap>
 void box3(const cv::Mat& src, int r, T* dst)
 {
   const T* b = src.ptr<T>(r);
   const T* a = r > 0 ? src.ptr<T>(r - 1) : b;
   const T* c = r + 1 < src.rows ? src.ptr<T>(r + 1) : b;
-  box3Row<T, kMin, kMap>(a, b, c, src.cols, dst);
+  box3Rows<T, kMin, kMap>(a, b, c, src.cols, dst);
 }
 template <typename T, bool kMin>
 void rectRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
@@ -154,7 +245,7 @@ void dilate3Rows(const T* a, const T* b, const T* c, int w, T* dst)
     horizontal<T, false>(col, w, 1, dst);
     return;
   }
-  box3Row<T, false, false>(a, b, c, w, dst);
+  box3Rows<T, false, false>(a, b, c, w, dst);
 }
 
 template <typename T>

@@ -157,6 +157,18 @@ inline float nearestOf(const float* range, int l, int h, std::int32_t* count)
   return v;
 }
 
+// x < v ? x : v per lane (NaN in x: v), as nearestOf keeps the nearest so far; the x86 vector min is exactly that
+// (Highway's scalar and emulated targets return the other operand where one is NaN, ARM's min NaN).
+template <class V>
+HWY_INLINE V nearer(V x, V v)
+{
+#if HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_AVX3
+  return hn::Min(x, v);
+#else
+  return hn::IfThenElse(hn::Lt(x, v), x, v);
+#endif
+}
+
 // Lane i of the 2N ranges w0, w1 (i < 2N; the lookups take i mod N).
 template <class DF, class VF, class VI>
 HWY_INLINE VF lookup2(DF df, VF w0, VF w1, VI i)
@@ -214,20 +226,25 @@ void pullChunks(const float* range, const std::int32_t* lo, const std::int32_t* 
     auto idx = hn::Sub(l, hn::Set(di, base));
     auto v = inf;
     auto finite = hn::Zero(di);
-    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
-    // always at its start.
-    for (int c = 0;; ++c, idx = hn::Add(idx, one))
-    {
-      const auto m = hn::RebindMask(df, hn::Gt(cnt, hn::Set(di, c)));
-      if (c >= 2 && hn::AllFalse(df, m))
-        break;
+    const auto rank = [&](auto m) HWY_ATTR {  // the pixels of rank c (idx) of the bins in m
       const auto x = lookup2(df, w0, w1, idx);
       if constexpr (kCount)  // NaN and +Inf are not finite
         finite = hn::Sub(finite, hn::VecFromMask(di, hn::RebindMask(di, hn::And(m, hn::Lt(x, inf)))));
-      v = hn::IfThenElse(hn::And(m, hn::Lt(x, v)), x, v);  // NaN ranges ignored, as nearestOf ignores them
+      v = hn::IfThenElse(m, nearer(x, v), v);
+      idx = hn::Add(idx, one);
+    };
+    // The first two pixel ranks whatever the counts (most bins hold one or two): the loop's exit is then all but
+    // always at its start.
+    rank(hn::RebindMask(df, some));
+    rank(hn::RebindMask(df, hn::Gt(cnt, one)));
+    for (int c = 2;; ++c)
+    {
+      const auto m = hn::RebindMask(df, hn::Gt(cnt, hn::Set(di, c)));
+      if (hn::AllFalse(df, m))
+        break;
+      rank(m);
     }
-    const auto old = hn::LoadU(df, bins + j);
-    hn::StoreU(hn::IfThenElse(hn::Lt(v, old), v, old), df, bins + j);
+    hn::StoreU(nearer(v, hn::LoadU(df, bins + j)), df, bins + j);
     if constexpr (kCount)
     {
       const auto fresh_lanes = hn::Not(hn::FirstN(di, static_cast<std::size_t>(N - fresh)));
