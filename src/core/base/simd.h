@@ -7,6 +7,9 @@
 // every target gives the same bits. Design notes: docs/core_design.md ("SIMD kernels and their references").
 #pragma once
 
+#include <cstdint>
+#include <type_traits>
+
 namespace kinect_pipeline
 {
 /**
@@ -32,6 +35,26 @@ __attribute__((always_inline)) inline void overlappedBlocks(int i0, int n, const
 
 namespace detail
 {
+/** One K<T> per depth pixel type (8-bit, 16-bit, float): a kernel table's entries for each. */
+template <template <typename> class K>
+struct ByDepthType
+{
+  K<std::uint8_t> u8;
+  K<std::uint16_t> u16;
+  K<float> f32;
+
+  template <typename T>
+  const K<T>& of() const
+  {
+    if constexpr (std::is_same_v<T, std::uint8_t>)
+      return u8;
+    else if constexpr (std::is_same_v<T, std::uint16_t>)
+      return u16;
+    else
+      return f32;
+  }
+};
+
 /** Applies KINECT_PIPELINE_SIMD once per process (kinect_pipeline/simd.h); throws what restrictSimd throws. */
 void simdFromEnvironment();
 }  // namespace detail

@@ -12,6 +12,8 @@
 #include <cstring>
 #include <type_traits>
 
+#include "base/simd.h"
+
 // The loops of one SIMD target.
 #ifndef KP_PER_PIXEL_KERNELS
 #define KP_PER_PIXEL_KERNELS
@@ -28,21 +30,8 @@ struct PixelKernelsOf
 };
 struct PixelKernels
 {
-  PixelKernelsOf<std::uint8_t> u8;
-  PixelKernelsOf<std::uint16_t> u16;
-  PixelKernelsOf<float> f32;
+  ByDepthType<PixelKernelsOf> types;
   void (*lift_steps)(const float* col, float rise_row, float lo, float inv_step, int last, int w, std::int32_t* k);
-
-  template <typename T>
-  const PixelKernelsOf<T>& of() const
-  {
-    if constexpr (std::is_same_v<T, std::uint8_t>)
-      return u8;
-    else if constexpr (std::is_same_v<T, std::uint16_t>)
-      return u16;
-    else
-      return f32;
-  }
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
@@ -124,7 +113,7 @@ constexpr PixelKernelsOf<T> kernelsOf()
 }
 }  // namespace
 
-const PixelKernels kPixelKernels = {kernelsOf<std::uint8_t>(), kernelsOf<std::uint16_t>(), kernelsOf<float>(),
+const PixelKernels kPixelKernels = {{kernelsOf<std::uint8_t>(), kernelsOf<std::uint16_t>(), kernelsOf<float>()},
                                     liftSteps};
 const PixelKernels* pixelKernelTable() { return &kPixelKernels; }
 }  // namespace HWY_NAMESPACE
@@ -200,7 +189,7 @@ template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
-  pixelKernels().of<T>().threshold(src, *f.lut, f.rule.scale, w, t);
+  pixelKernels().types.of<T>().threshold(src, *f.lut, f.rule.scale, w, t);
   RowCounts c;
   if (f.rule.lift.table)
   {
@@ -223,7 +212,7 @@ template <typename T, bool kRescue, bool kLift>
 RowCounts classifyRow(const T* src, const T* in, const float* t, const float* fh, const float* col, float rise_row,
                       PlaneRule rule, int w, std::uint8_t* lab, T* dst, std::uint8_t* cand)
 {
-  return pixelKernels().of<T>().classify[kRescue][kLift](src, in, t, fh, col, rise_row, rule, w, lab, dst, cand);
+  return pixelKernels().types.of<T>().classify[kRescue][kLift](src, in, t, fh, col, rise_row, rule, w, lab, dst, cand);
 }
 
 #define KP_CLASSIFY(T, R, L)                                                                                         \

@@ -1,9 +1,9 @@
 // Private to the core: the opening's row kernels of one SIMD target (stages/opening/kernels.cpp).
 #pragma once
 
-#include <type_traits>
-
 #include <opencv2/core.hpp>
+
+#include "base/simd.h"
 
 namespace kinect_pipeline
 {
@@ -20,23 +20,7 @@ struct RowKernels
 };
 
 /** The opening's kernels of one SIMD target: openingKernels() gives those of the target the dispatch picks. */
-struct OpeningKernels
-{
-  RowKernels<std::uint8_t> u8;
-  RowKernels<std::uint16_t> u16;
-  RowKernels<float> f32;
-
-  template <typename T>
-  const RowKernels<T>& of() const
-  {
-    if constexpr (std::is_same_v<T, std::uint8_t>)
-      return u8;
-    else if constexpr (std::is_same_v<T, std::uint16_t>)
-      return u16;
-    else
-      return f32;
-  }
-};
+using OpeningKernels = ByDepthType<RowKernels>;
 const OpeningKernels& openingKernels();
 }  // namespace detail
 }  // namespace kinect_pipeline

@@ -298,9 +298,9 @@ const ScanKernels kScanKernels = {
     columnLoop,
     {{pixelLoop<false, false>, pixelLoop<false, true>}, {pixelLoop<true, false>, pixelLoop<true, true>}},
     pullNearest,
-    {keptRangeLoop<std::uint8_t>, keptRangeLoopLevel<std::uint8_t>},
-    {keptRangeLoop<std::uint16_t>, keptRangeLoopLevel<std::uint16_t>},
-    {keptRangeLoop<float>, keptRangeLoopLevel<float>},
+    {{keptRangeLoop<std::uint8_t>, keptRangeLoopLevel<std::uint8_t>},
+     {keptRangeLoop<std::uint16_t>, keptRangeLoopLevel<std::uint16_t>},
+     {keptRangeLoop<float>, keptRangeLoopLevel<float>}},
 };
 const ScanKernels* scanKernelTable() { return &kScanKernels; }
 }  // namespace HWY_NAMESPACE
@@ -461,7 +461,7 @@ void ScanProjector::spanRanges(int r, int u0, int u1, const float* depth, float*
 template <typename T>
 void ScanProjector::spanKeptSquaredRanges(int r, int u0, int u1, const T* row, float scale, float* range) const
 {
-  const detail::KeptRangeKernels<T>& k = detail::scanKernels().kept<T>();
+  const detail::KeptRangeKernels<T>& k = detail::scanKernels().kept.of<T>();
   if (ax_ == 0.0f && ay_ == -1.0f && by_[r] == 0.0f)
     k.level(xn2_.data(), u0, u1, bx_[r], row, scale, range);
   else

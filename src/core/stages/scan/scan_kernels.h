@@ -4,7 +4,8 @@
 #pragma once
 
 #include <cstdint>
-#include <type_traits>
+
+#include "base/simd.h"
 
 namespace kinect_pipeline
 {
@@ -37,20 +38,7 @@ struct ScanKernels
   /** detail::pullNearest. */
   void (*pull)(const float* range, const std::int32_t* lo, const std::int32_t* hi, int n, float* bins,
                std::int32_t* counts);
-  KeptRangeKernels<std::uint8_t> kept8;
-  KeptRangeKernels<std::uint16_t> kept16;
-  KeptRangeKernels<float> kept32;
-
-  template <typename T>
-  const KeptRangeKernels<T>& kept() const
-  {
-    if constexpr (std::is_same_v<T, std::uint8_t>)
-      return kept8;
-    else if constexpr (std::is_same_v<T, std::uint16_t>)
-      return kept16;
-    else
-      return kept32;
-  }
+  ByDepthType<KeptRangeKernels> kept;
 };
 const ScanKernels& scanKernels();
 
