@@ -25,10 +25,9 @@ namespace
 {
 // The sum of a vector of per-lane counts.
 template <class D, class V>
-HWY_INLINE int total(D d, V c)
+HWY_INLINE int total(D /* d */, V c)
 {
 #if HWY_TARGET == HWY_SCALAR
-  (void)d;
   return static_cast<int>(hn::GetLane(c));
 #else
   if constexpr (sizeof(hn::TFromD<D>) == 1)
@@ -92,11 +91,16 @@ HWY_INLINE void storeBytes(D d, V v, std::uint8_t* p)
 {
   if constexpr (sizeof(hn::TFromD<D>) == 1)
     hn::StoreU(v, d, p);
+#if HWY_TARGET == HWY_AVX3
+  else  // one truncating move (vpmovwb)
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), _mm512_cvtepi16_epi8(v.raw));
+#else
   else
   {
     const hn::Rebind<std::uint8_t, D> d8;
     hn::StoreU(hn::DemoteTo(d8, hn::BitCast(hn::RebindToSigned<D>(), v)), d8, p);  // values below 128
   }
+#endif
 }
 
 template <typename T, bool kRescue>
@@ -113,6 +117,7 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
   const auto t1 = set(s.t1), t2 = set(s.t2), vnone = set(none), rt1 = set(rescuable ? s.t1 : none);
   const auto minvalid = set(Tr::kMinValid), move1 = set(s.min_move - 1);
   const auto l1 = set(s.l1), l2 = set(s.l2), linv = set(kInvalid), lkept = set(kKept), lbelow = set(kBelowFloor);
+  const auto one = set(1);
   // Counts per lane (subtracting a mask's all-ones adds one), summed per row and every 255 blocks (8-bit lanes).
   auto c1 = hn::Zero(d), c2 = c1, ci = c1, cc = c1;
   int n1 = 0, n2 = 0, ni = 0, nc = 0;
@@ -124,8 +129,17 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
     c1 = c2 = ci = cc = hn::Zero(d);
   };
   Track<D> kept, below;
-  // One block of L pixels from u (counted: the lanes not counted yet).
-  const auto block = [&](int u, hn::Mask<D> counted) {
+  // One block of L pixels from u (counted: the lanes not counted yet; all of them but in the last block).
+  const auto block = [&](int u, auto whole, hn::Mask<D> counted) {
+    const auto count = [&](auto& c, hn::Mask<D> m) {
+      if constexpr (!decltype(whole)::value)
+        m = hn::And(m, counted);
+#if HWY_TARGET == HWY_AVX3
+      c = hn::IfThenElse(m, hn::Add(c, one), c);  // one masked add
+#else
+      c = hn::Sub(c, hn::VecFromMask(d, m));  // the mask is a vector of all-ones lanes
+#endif
+    };
     const auto v = hn::LoadU(d, src + u);
     const auto g1 = atLeast(v, t1), g2 = atLeast(v, t2), inv = hn::Eq(v, vnone);
     if constexpr (sizeof(T) == 1)
@@ -135,9 +149,9 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
     // l1 from t1, + l2 from t2, no return kInvalid (it is >= t1 and >= t2).
     const auto l = hn::IfThenElse(inv, linv, hn::Add(hn::IfThenElseZero(g1, l1), hn::IfThenElseZero(g2, l2)));
     storeBytes(d, l, lab + u);
-    c1 = hn::Sub(c1, hn::VecFromMask(d, hn::And(g1, counted)));
-    c2 = hn::Sub(c2, hn::VecFromMask(d, hn::And(g2, counted)));
-    ci = hn::Sub(ci, hn::VecFromMask(d, hn::And(inv, counted)));
+    count(c1, g1);
+    count(c2, g2);
+    count(ci, inv);
     const auto is_below = hn::Eq(l, lbelow);
     kept.add(d, hn::Not(g1), u);  // kept: below t1
     below.add(d, is_below, u);
@@ -148,15 +162,15 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
       const auto above = hn::Gt(raw, hn::SaturatedAdd(v, move1));               // raw - v >= min_move
       const auto inband = hn::AndNot(atLeast(raw, t2), atLeast(raw, rt1));  // rt1 <= raw < t2
       const auto f = hn::And(hn::Or(hn::Eq(l, lkept), is_below), hn::And(above, inband));
-      storeBytes(d, hn::IfThenElseZero(f, set(1)), cand + u);
-      cc = hn::Sub(cc, hn::VecFromMask(d, hn::And(f, counted)));
+      storeBytes(d, hn::IfThenElseZero(f, one), cand + u);
+      count(cc, f);
     }
   };
   int u = 0, blocks = 0;
   const auto all = hn::FirstN(d, static_cast<std::size_t>(L));
   for (; u + L <= w; u += L)
   {
-    block(u, all);
+    block(u, std::true_type(), all);
     if (sizeof(T) == 1 && ++blocks == 255)
     {
       flush();
@@ -164,7 +178,7 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
     }
   }
   if (u < w)  // the last L pixels again: the lanes before u are counted already
-    block(w - L, hn::Not(hn::FirstN(d, static_cast<std::size_t>(u - (w - L)))));
+    block(w - L, std::false_type(), hn::Not(hn::FirstN(d, static_cast<std::size_t>(u - (w - L)))));
   flush();
   RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
   c.kept_first = kept.first;
