@@ -21,7 +21,7 @@ INCLUDE = ROOT / "include"
 PUBLIC = INCLUDE / "kinect_pipeline"
 CORE = ROOT / "src" / "core"
 #: The public headers outside a layer's folder, and their layer.
-TOP_LEVEL = {"types.h": "base", "pipeline.h": "pipeline", "settings_exchange.h": "pipeline"}
+TOP_LEVEL = {"types.h": "base", "simd.h": "base", "pipeline.h": "pipeline", "settings_exchange.h": "pipeline"}
 #: Headers generated at build time (dynamic_reconfigure), not in the tree, and the layer they belong to.
 GENERATED = {"kinect_pipeline/KinectPipelineConfig.h": "ros"}
 LIB = ROOT / "build" / "devel" / "lib"

@@ -45,31 +45,29 @@ HWY_INLINE int total(D /* d */, V c)
 #endif
 }
 
-// Where pixels of one label first and last appear: the first column, and the last block holding one.
-template <class D>
+// Where pixels of one label first appear (their column) and last appear (the last block holding one: its column
+// is found from the row's data at the end). No mask is kept: SVE's masks cannot be members.
 struct Track
 {
   int first = -1, at = -1;
-  hn::Mask<D> last;
-  HWY_INLINE void add(D d, hn::Mask<D> m, int u)
+  template <class D, class M>
+  HWY_INLINE void add(D d, M m, int u)
   {
     if (hn::AllFalse(d, m))
       return;
     if (first < 0)
       first = u + static_cast<int>(hn::FindFirstTrue(d, m));
     at = u;
-    last = m;
   }
-  HWY_INLINE int lastColumn(D d) const
+  /** The last column of the block at `at` (L columns) where is(column) holds, -1 for none. */
+  template <typename Is>
+  int last(int L, const Is& is) const
   {
-    if (at < 0)
-      return -1;
-    std::uint8_t bits[8] = {};  // one bit per lane (lane i: bit i % 8 of byte i / 8), up to 64 lanes
-    hn::StoreMaskBits(d, last, bits);
-    std::uint64_t word = 0;
-    for (int i = 7; i >= 0; --i)
-      word = word << 8 | bits[i];
-    return at + 63 - __builtin_clzll(word);  // the mask is not empty
+    if (at >= 0)
+      for (int u = at + L - 1; u >= at; --u)
+        if (is(u))
+          return u;
+    return -1;
   }
 };
 
@@ -128,7 +126,7 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
     nc += total(d, cc);
     c1 = c2 = ci = cc = hn::Zero(d);
   };
-  Track<D> kept, below;
+  Track kept, below;
   // One block of L pixels from u (counted: the lanes not counted yet; all of them but in the last block).
   const auto block = [&](int u, auto whole, hn::Mask<D> counted) {
     const auto count = [&](auto& c, hn::Mask<D> m) {
@@ -182,9 +180,10 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
   flush();
   RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
   c.kept_first = kept.first;
-  c.kept_last = kept.lastColumn(d);
+  const T t1v = static_cast<T>(s.t1);
+  c.kept_last = kept.last(L, [&](int u) { return src[u] < t1v; });
   c.below_first = below.first;
-  c.below_last = below.lastColumn(d);
+  c.below_last = below.last(L, [&](int u) { return lab[u] == kBelowFloor; });
   return c;
 }
 }  // namespace
