@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of the package: C++ gtest (and rostest) through catkin, the core under ASan + UBSan, its
-# threaded paths under TSan, a short libFuzzer run of the C++ entry point, then pytest.
+# threaded paths under TSan, a short libFuzzer run of the C++ entry point, the core's gtests cross-built for
+# aarch64 under qemu (scripts/cross_aarch64.sh), then pytest.
 # Expects the build from scripts/quickstart.sh; use 'bash scripts/quickstart.sh test' on a fresh machine.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -88,6 +89,13 @@ with open("build/fuzz_results.xml", "w") as f:
             f'{body}</testcase></testsuite></testsuites>')
 PY
 
+echo "== the core and its gtests cross-built for aarch64, under qemu (NEON and scalar targets) =="
+arm_status=0
+rm -f build/aarch64/test_core.xml
+bash scripts/cross_aarch64.sh >build/aarch64_run.log 2>&1 || arm_status=$?
+grep -E "^== times|SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_run.log | sort -u | head -20
+[ "$arm_status" -eq 0 ] || tail -40 build/aarch64_run.log
+
 echo "== Python tests (pytest) =="
 py_status=0
 python3 -m pytest test/python -q -p no:cacheprovider --junitxml=build/pytest.xml || py_status=$?
@@ -97,7 +105,7 @@ import glob
 import xml.etree.ElementTree as ET
 counts = {"passed": 0, "failed": 0, "skipped": 0}
 totals = {"cpp": 0, "py": 0}
-sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml"]
+sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml", "build/aarch64/test_core.xml"]
 for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + sanitizers + ["build/pytest.xml"]:
     try:
         root = ET.parse(path).getroot()
@@ -115,6 +123,6 @@ print(counts["passed"], counts["failed"], counts["skipped"], totals["cpp"], tota
 PY
 )"
 echo "kinect_pipeline: $passed passed, $failed failed, $skipped skipped"
-if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$tsan_status" -ne 0 ] || [ "$fuzz_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
+if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$tsan_status" -ne 0 ] || [ "$fuzz_status" -ne 0 ] || [ "$arm_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
   exit 1
 fi

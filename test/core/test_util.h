@@ -155,6 +155,7 @@ void expectInvalid(F f, std::initializer_list<const char*> words)
 }  // namespace kp_test
 
 #include <functional>
+#include <iostream>
 
 #include "kinect_pipeline/simd.h"
 
@@ -179,6 +180,10 @@ inline std::vector<std::string> forEachSimdTarget(const std::function<void(const
     check(t);
     ran.push_back(t);
   }
+  std::string names;
+  for (const std::string& t : ran)
+    names += (names.empty() ? "" : ", ") + t;
+  std::cout << "[ info ] SIMD targets run: " << names << std::endl;
   return ran;
 }
 }  // namespace kp_test
