@@ -25,8 +25,11 @@ from ._core import (
     evaluate_curve,
     morph_open,
     render_scene,
+    restrict_simd,
     sensor_model,
     sensor_models,
+    simd_target,
+    simd_targets,
     threshold_lut,
 )
 
@@ -58,8 +61,11 @@ __all__ = [
     "kinect_v2_camera",
     "morph_open",
     "render_scene",
+    "restrict_simd",
     "sensor_model",
     "sensor_models",
+    "simd_target",
+    "simd_targets",
     "threshold_lut",
 ]
 

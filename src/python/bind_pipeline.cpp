@@ -20,6 +20,7 @@
 #include "kinect_pipeline/model/config.h"
 #include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/pipeline.h"
+#include "kinect_pipeline/simd.h"
 
 namespace kinect_pipeline::python
 {
@@ -394,6 +395,16 @@ void bindTransforms(py::module_& m)
         "Quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll).");
 }
 
+void bindSimd(py::module_& m)
+{
+  m.def("simd_targets", &simdTargets,
+        "The SIMD targets of the kernels this CPU can run, best first: avx512, avx2, sse4, scalar (aarch64: sve2, sve, "
+        "neon, scalar). Every one gives the same bits.");
+  m.def("simd_target", &simdTarget, "The SIMD target the kernels run now.");
+  m.def("restrict_simd", &restrictSimd, py::arg("target"),
+        "Restricts the kernels to one target for the whole process ('native': the best the CPU has). ValueError "
+        "for a target this CPU lacks. The environment variable KINECT_PIPELINE_SIMD does the same.");
+}
 }  // namespace
 
 void bindPipeline(py::module_& m)
@@ -404,6 +415,7 @@ void bindPipeline(py::module_& m)
   bindResult(m);
   bindPipelineClass(m);
   bindTransforms(m);
+  bindSimd(m);
 }
 
 }  // namespace kinect_pipeline::python

@@ -7,8 +7,10 @@ import os
 import re
 import subprocess
 
+import numpy as np
 import pytest
 
+import kinect_pipeline as kp
 from kinect_pipeline.cli.bench import bench_binary
 
 BENCH = str(bench_binary())
@@ -46,3 +48,32 @@ def test_the_environment_variable_restricts_the_dispatch() -> None:
     r = _bench(env={"KINECT_PIPELINE_SIMD": "scalar"})
     assert r.returncode == 0, r.stderr
     assert _targets_ran(r.stdout) == ["scalar"], r.stdout
+
+
+def test_python_restricts_the_dispatch_and_every_target_gives_the_same_frame() -> None:
+    cam = kp.Camera.from_fov(160, 120, kp.KINECT_V2_HFOV, kp.KINECT_V2_VFOV)
+    cfg = kp.Config(sensor_height=1.1, sensor_pitch=0.26)
+    metres = kp.render_scene(cam, 1.1, 0.26, 0.0, boxes=[(2.0, 2.6, -0.8, 0.6, 0.0, 0.9)])["depth"]
+    frame = kp.encode_depth(metres, "16UC1", 12.0)
+    targets = kp.simd_targets()
+    assert targets[-1] == "scalar" and len(targets) >= 2, targets
+    results = {}
+    try:
+        for t in targets:
+            kp.restrict_simd(t)
+            assert kp.simd_target() == t
+            r = kp.Pipeline(cam, cfg).process(frame, 0.0, 0.0)
+            results[t] = (np.asarray(r.labels).copy(), np.asarray(r.ranges).copy())
+    finally:
+        kp.restrict_simd("native")
+    assert kp.simd_target() == targets[0]
+    first = results[targets[0]]
+    for t, (labels, ranges) in results.items():
+        assert np.array_equal(labels, first[0]), t
+        assert np.array_equal(ranges, first[1], equal_nan=True), t
+    assert np.isfinite(first[1]).sum() > 20
+
+
+def test_python_refuses_a_target_naming_it_and_the_choices() -> None:
+    with pytest.raises(ValueError, match=r"'mmx'.*scalar"):
+        kp.restrict_simd("mmx")
