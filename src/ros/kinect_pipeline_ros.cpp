@@ -15,6 +15,7 @@
 
 #include "kinect_pipeline/io/compressed_depth.h"
 #include "kinect_pipeline/model/pose.h"
+#include "kinect_pipeline/simd.h"
 #include "kinect_pipeline/ros/conversions.h"
 
 namespace kinect_pipeline
@@ -605,8 +606,8 @@ void KinectPipelineRos::process(const Input& in)
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++camera_changes_;
     }
-    ROS_INFO("%s: camera %dx%d, fx %.2f fy %.2f cx %.2f cy %.2f", name_.c_str(), cam.width, cam.height, cam.fx, cam.fy,
-             cam.cx, cam.cy);
+    ROS_INFO("%s: camera %dx%d, fx %.2f fy %.2f cx %.2f cy %.2f; SIMD target %s", name_.c_str(), cam.width, cam.height,
+             cam.fx, cam.fy, cam.cx, cam.cy, simdTarget().c_str());
     camera_ = cam;
   }
   publish(s, in, encoding);
