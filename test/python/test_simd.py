@@ -12,6 +12,9 @@ import pytest
 
 import kinect_pipeline as kp
 from kinect_pipeline.cli.bench import bench_binary
+from kinect_pipeline.evaluation.real_floors import RS_CAM, shared_realsense_frames
+
+REAL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "real")
 
 BENCH = str(bench_binary())
 
@@ -72,6 +75,46 @@ def test_python_restricts_the_dispatch_and_every_target_gives_the_same_frame() -
         assert np.array_equal(labels, first[0]), t
         assert np.array_equal(ranges, first[1], equal_nan=True), t
     assert np.isfinite(first[1]).sum() > 20
+
+
+def test_real_realsense_frames_give_the_same_bits_on_every_target() -> None:
+    # Real depth, 16-bit: rows labelled by value (no roll) and pixel by pixel (roll), the floor profile learning.
+    frames = shared_realsense_frames(os.path.join(REAL, "realsense_lowcam"))[:4]
+    assert len(frames) == 4, f"the shared RealSense frames are missing under {REAL}"
+    metres = np.where(frames[0] > 0, frames[0] / 1000.0, np.inf).astype(np.float32)
+    fp = kp._core.calibrate_from_floor(metres, RS_CAM)  # the floor the first frame holds
+    assert fp["found"], fp
+    cfg = kp.Config(
+        sensor_model="realsense_d4xx",
+        sensor_height=fp["height"],
+        sensor_pitch=fp["pitch"],
+        sensor_roll=fp["roll"],
+        ceiling_height=max(2.0, fp["height"] + 0.5),
+    )
+    outputs: dict[str, list[tuple[np.ndarray, ...]]] = {}
+    try:
+        for t in kp.simd_targets():
+            kp.restrict_simd(t)
+            pipe = kp.Pipeline(RS_CAM, cfg)
+            outputs[t] = []
+            for i, depth in enumerate(frames):
+                r = pipe.process(depth, 0.0, 0.05 * (i % 2), stamp=0.1 * i)
+                outputs[t].append(
+                    (
+                        np.asarray(r.labels).copy(),
+                        np.asarray(r.depth).copy(),
+                        np.asarray(r.ranges).copy(),
+                        np.asarray(r.cliff_ranges).copy(),
+                    )
+                )
+    finally:
+        kp.restrict_simd("native")
+    first = next(iter(outputs.values()))
+    for t, frames_out in outputs.items():
+        for i, (got, want) in enumerate(zip(frames_out, first, strict=True)):
+            for a, b in zip(got, want, strict=True):
+                assert np.array_equal(a, b, equal_nan=True), (t, i)
+    assert (first[0][0] == kp.LABELS["floor"]).mean() > 0.05, "the frames' floor is labelled"
 
 
 def test_python_refuses_a_target_naming_it_and_the_choices() -> None:
