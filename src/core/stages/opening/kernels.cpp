@@ -156,7 +156,7 @@ void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
   const hn::ScalableTag<T> d;
   const int L = static_cast<int>(hn::Lanes(d));
   const auto pickV = [](auto x, auto y) { return kMin ? hn::Min(x, y) : hn::Max(x, y); };
-  constexpr T kSmallest = kMap ? DepthTraits<T>::kMinValid : 0;  // MapOrder's key: v - kSmallest (wrapping)
+  constexpr T kSmallest = kMap ? MapOrder<T, true>::kSmallest : 0;  // MapOrder's key: v - kSmallest (wrapping)
   const auto key = [&](const T* p) { return hn::Sub(hn::LoadU(d, p), hn::Set(d, kSmallest)); };
   const auto back = [&](auto k) {  // MapOrder::back: keys above no-return - smallest were unknown values
     if constexpr (!kMap)
