@@ -50,6 +50,20 @@ double median(std::vector<double> v)
   return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
+// "a,b,c" -> {a, b, c} (the list options).
+std::vector<std::string> commaList(const std::string& list)
+{
+  std::vector<std::string> out;
+  for (std::size_t at = 0; at <= list.size();)
+  {
+    const std::size_t comma = std::min(list.find(',', at), list.size());
+    if (comma > at)
+      out.push_back(list.substr(at, comma - at));
+    at = comma + 1;
+  }
+  return out;
+}
+
 double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
 
 // A lab-like scene: benches, a desk, a person-sized box, low clutter, a real ceiling at 2.6 m.
@@ -89,10 +103,8 @@ int main(int argc, char** argv)
     {
       // A comma-separated subset of 8UC1,16UC1,32FC1 (profiling one encoding).
       types.clear();
-      for (std::string t = argv[++i]; !t.empty();)
+      for (const std::string& e : commaList(argv[++i]))
       {
-        const std::size_t comma = t.find(',');
-        const std::string e = t.substr(0, comma);
         if (e == "8UC1")
           types.push_back(CV_8UC1);
         else if (e == "16UC1")
@@ -104,7 +116,6 @@ int main(int argc, char** argv)
           std::fprintf(stderr, "--encodings: '%s' is not one of 8UC1, 16UC1, 32FC1\n", e.c_str());
           return 2;
         }
-        t = comma == std::string::npos ? "" : t.substr(comma + 1);
       }
     }
     else if (a == "--surface-band" && i + 1 < argc)
@@ -114,30 +125,20 @@ int main(int argc, char** argv)
     else if (a == "--markdown")
       markdown = true;
     else if (a == "--simd" && i + 1 < argc)
-    {
-      simds.clear();
-      for (std::string t = argv[++i]; !t.empty();)
-      {
-        const std::size_t comma = t.find(',');
-        simds.push_back(t.substr(0, comma));
-        t = comma == std::string::npos ? "" : t.substr(comma + 1);
-      }
-    }
+      simds = commaList(argv[++i]);
     else if (a == "--threads" && i + 1 < argc)
     {
       // A comma-separated list, e.g. 1,2,4,8,16; the first is the speed-up's reference.
       thread_counts.clear();
-      for (std::string t = argv[++i]; !t.empty();)
+      for (const std::string& t : commaList(argv[++i]))
       {
-        const std::size_t comma = t.find(',');
-        const int n = std::atoi(t.substr(0, comma).c_str());
+        const int n = std::atoi(t.c_str());
         if (n < 1 || n > 1024)
         {
-          std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.substr(0, comma).c_str());
+          std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.c_str());
           return 2;
         }
         thread_counts.push_back(n);
-        t = comma == std::string::npos ? "" : t.substr(comma + 1);
       }
     }
     else
