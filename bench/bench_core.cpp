@@ -3,10 +3,11 @@
 // Also counts heap allocations per frame in steady state (global operator new is counted here).
 //
 // --simd restricts the kernels' run-time dispatch to one SIMD target (kinect_pipeline/simd.h); a list measures each
-// target in turn, side by side, in one run.
+// target in turn, side by side, in one run. --reference does the same for a Pipeline's fast paths
+// (ReferencePaths): what each one buys, measured beside the frame that takes them all.
 //
 //   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...]
-//                         [--encodings 8UC1,...] [--simd native,avx2,...] [--markdown]
+//                         [--encodings 8UC1,...] [--simd native,avx2,...] [--reference none,labels,...] [--markdown]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -66,6 +67,9 @@ std::vector<std::string> commaList(const std::string& list)
 
 double ms(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double, std::milli>(b - a).count(); }
 
+// The sensor's mounting: the scene is rendered there, and the pipelines are told it.
+constexpr double kHeight = 1.1, kPitch = 0.26;
+
 // A lab-like scene: benches, a desk, a person-sized box, low clutter, a real ceiling at 2.6 m.
 Scene labScene()
 {
@@ -76,60 +80,99 @@ Scene labScene()
              {2.8, 3.0, -0.4, -0.2, 0.0, 0.05}};
   return s;
 }
-}  // namespace
 
-int main(int argc, char** argv)
+// "labels+opening" -> those ReferencePaths fields on; "none": the fast paths; "all": every reference path.
+bool parseReference(const std::string& name, ReferencePaths& out)
+{
+  out = {};
+  if (name == "all")
+    out = ReferencePaths::all();
+  else if (name != "none")
+    for (std::size_t at = 0; at <= name.size();)
+    {
+      const std::size_t plus = std::min(name.find('+', at), name.size());
+      const std::string f = name.substr(at, plus - at);
+      bool* field = f == "labels" ? &out.labels : f == "binning" ? &out.binning : f == "opening" ? &out.opening
+                    : f == "portable" ? &out.portable : nullptr;
+      if (!field)
+        return false;
+      *field = true;
+      at = plus + 1;
+    }
+  return true;
+}
+
+struct Options
 {
   int frames = 300, kernel = 3;
   double surface_band = 0.0;
-  bool refine_floor = true;
+  bool refine_floor = true, markdown = false;
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
-  bool markdown = false;
   std::vector<int> types = {CV_8UC1, CV_16UC1, CV_32FC1};
+  std::vector<std::string> simds, references = {"none"};
+  bool simd_from_env = false;  // KINECT_PIPELINE_SIMD gave the one target (its name goes into an error)
+};
+
+// @return -1 to go on, else the exit status (after --help, or a bad option with its message on stderr).
+int parseOptions(int argc, char** argv, Options& o)
+{
   // KINECT_PIPELINE_SIMD is the default of --simd here (restrictSimd of each run would otherwise undo it).
   const char* env_simd = std::getenv("KINECT_PIPELINE_SIMD");
-  std::vector<std::string> simds = {env_simd && *env_simd ? env_simd : "native"};
+  o.simd_from_env = env_simd && *env_simd;
+  o.simds = {o.simd_from_env ? env_simd : "native"};
   for (int i = 1; i < argc; ++i)
   {
     const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc)
-      frames = std::atoi(argv[++i]);
-    else if (a == "--kernel" && i + 1 < argc)
-      kernel = std::atoi(argv[++i]);
-    else if (a == "--projection" && i + 1 < argc)
-      projection = argv[++i];
-    else if (a == "--encodings" && i + 1 < argc)
+    const bool value = i + 1 < argc;
+    if (a == "--frames" && value)
+      o.frames = std::atoi(argv[++i]);
+    else if (a == "--kernel" && value)
+      o.kernel = std::atoi(argv[++i]);
+    else if (a == "--projection" && value)
+      o.projection = argv[++i];
+    else if (a == "--encodings" && value)
     {
       // A comma-separated subset of 8UC1,16UC1,32FC1 (profiling one encoding).
-      types.clear();
+      o.types.clear();
       for (const std::string& e : commaList(argv[++i]))
       {
-        if (e == "8UC1")
-          types.push_back(CV_8UC1);
-        else if (e == "16UC1")
-          types.push_back(CV_16UC1);
-        else if (e == "32FC1")
-          types.push_back(CV_32FC1);
-        else
+        const int t = e == "8UC1" ? CV_8UC1 : e == "16UC1" ? CV_16UC1 : e == "32FC1" ? CV_32FC1 : -1;
+        if (t < 0)
         {
           std::fprintf(stderr, "--encodings: '%s' is not one of 8UC1, 16UC1, 32FC1\n", e.c_str());
           return 2;
         }
+        o.types.push_back(t);
       }
     }
-    else if (a == "--surface-band" && i + 1 < argc)
-      surface_band = std::atof(argv[++i]);
+    else if (a == "--surface-band" && value)
+      o.surface_band = std::atof(argv[++i]);
     else if (a == "--no-refine-floor")
-      refine_floor = false;
+      o.refine_floor = false;
     else if (a == "--markdown")
-      markdown = true;
-    else if (a == "--simd" && i + 1 < argc)
-      simds = commaList(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc)
+      o.markdown = true;
+    else if (a == "--simd" && value)
+    {
+      o.simds = commaList(argv[++i]);
+      o.simd_from_env = false;
+    }
+    else if (a == "--reference" && value)
+    {
+      o.references = commaList(argv[++i]);
+      ReferencePaths paths;
+      for (const std::string& r : o.references)
+        if (!parseReference(r, paths))
+        {
+          std::fprintf(stderr, "--reference: '%s' is not none, all, or fast paths joined by '+' (labels, binning, "
+                               "opening, portable)\n", r.c_str());
+          return 2;
+        }
+    }
+    else if (a == "--threads" && value)
     {
       // A comma-separated list, e.g. 1,2,4,8,16; the first is the speed-up's reference.
-      thread_counts.clear();
+      o.thread_counts.clear();
       for (const std::string& t : commaList(argv[++i]))
       {
         const int n = std::atoi(t.c_str());
@@ -138,122 +181,149 @@ int main(int argc, char** argv)
           std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.c_str());
           return 2;
         }
-        thread_counts.push_back(n);
+        o.thread_counts.push_back(n);
       }
     }
     else
     {
-      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] [--encodings 8UC1,16UC1,32FC1] [--simd native|avx512|avx2|sse4|scalar,...] [--surface-band B] [--no-refine-floor] [--markdown]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] "
+                           "[--encodings 8UC1,16UC1,32FC1] [--simd native|avx512|avx2|sse4|scalar,...] "
+                           "[--reference none|all|labels+binning+opening+portable,...] [--surface-band B] "
+                           "[--no-refine-floor] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
-
-  for (const std::string& t : simds)
+  for (const std::string& t : o.simds)
     try
     {
       restrictSimd(t);
     }
     catch (const std::invalid_argument& e)
     {
-      std::fprintf(stderr, "%s: %s\n", env_simd && simds.size() == 1 && t == env_simd ? "KINECT_PIPELINE_SIMD" : "--simd",
-                   e.what());
+      std::fprintf(stderr, "%s: %s\n", o.simd_from_env ? "KINECT_PIPELINE_SIMD" : "--simd", e.what());
       return 2;
     }
+  return -1;
+}
+
+struct Row
+{
+  std::string enc, simd, reference;
+  int threads;
+  double memcpy_ms, total, prepare, floor_fit, erode, classify, confidence;
+  double allocs;
+};
+
+// One row of the table: `frames` frames of one encoding, thread count, SIMD target and set of reference paths.
+Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, int threads, const std::string& simd,
+            const std::string& reference)
+{
+  restrictSimd(simd);
+  ReferencePaths paths;
+  parseReference(reference, paths);
+  Config cfg;
+  cfg.sensor_height = kHeight;
+  cfg.sensor_pitch = kPitch;
+  cfg.open_kernel_size = o.kernel;
+  cfg.projection = projectionFromString(o.projection);
+  cfg.num_threads = threads;
+  cfg.surface_band = o.surface_band;
+  cfg.refine_floor = o.refine_floor;
+  Pipeline pipe(cam, cfg, paths);
+  FrameResult res;
+  // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
+  for (int i = 0; i < 30; ++i)
+    pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
+  cv::Mat copy(frame.size(), frame.type());
+  const std::size_t bytes = frame.total() * frame.elemSize();
+  std::vector<double> tm, tt, tp, tff, te, tc, tf;
+  long allocs = 0;
+  for (int i = 0; i < o.frames; ++i)
+  {
+    auto a = Clock::now();
+    std::memcpy(copy.data, frame.data, bytes);
+    tm.push_back(ms(a, Clock::now()));
+    const long before = g_allocations.load();
+    pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
+    allocs += g_allocations.load() - before;
+    tt.push_back(res.times.total);
+    tp.push_back(res.times.prepare);
+    tff.push_back(res.times.floor_fit);
+    te.push_back(res.times.erode);
+    tc.push_back(res.times.classify_scan);
+    tf.push_back(res.times.confidence);
+  }
+  const int type = frame.type();
+  const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32;
+  return {toString(enc), simd == "native" ? "native (" + simdTarget() + ")" : simdTarget(), reference, threads,
+          median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
+          static_cast<double>(allocs) / o.frames};
+}
+
+void printTable(const Options& o, const std::vector<Row>& rows)
+{
+  std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, opening %dx%d rect, %s projection, "
+              "surface_band %g, pitch changing every frame\n",
+              o.frames, o.kernel, o.kernel, o.projection.c_str(), o.surface_band);
+  if (o.markdown)
+  {
+    std::printf("| encoding | simd | threads | reference paths | memcpy [ms] | prepare | (floor fit) | erode | "
+                "classify+scan | confidence | frame [ms] | frame / memcpy | floor fit / frame | speed-up vs 1 thread "
+                "| allocations / frame |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  }
+  else
+  {
+    std::printf("%-6s %-15s %3s %-14s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "simd", "thr", "reference",
+                "memcpy", "prepare", "floor fit", "erode", "classify", "conf", "frame", "x memcpy", "fit/frame",
+                "speedup", "allocs");
+  }
+  // Rows run encoding by encoding, then thread count, target and reference paths: the speed-up is against the
+  // same encoding, target and paths at the first thread count.
+  const std::size_t per_threads = o.simds.size() * o.references.size(), per_enc = o.thread_counts.size() * per_threads;
+  for (std::size_t i = 0; i < rows.size(); ++i)
+  {
+    const Row& r = rows[i];
+    const double speedup = rows[i - i % per_enc + i % per_threads].total / r.total;
+    if (o.markdown)
+      std::printf("| %s | %s | %d | %s | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
+                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), r.memcpy_ms, r.prepare, r.floor_fit,
+                  r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total,
+                  speedup, r.allocs);
+    else
+      std::printf("%-6s %-15s %3d %-14s %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n",
+                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), r.memcpy_ms, r.prepare, r.floor_fit,
+                  r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total,
+                  speedup, r.allocs);
+  }
+  std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run; the floor fit is "
+              "part of prepare, and 'fit/frame' its share of the frame; 'reference': the fast paths replaced by their "
+              "plain reference, none by default)\n");
+}
+}  // namespace
+
+int main(int argc, char** argv)
+{
+  Options o;
+  if (const int rc = parseOptions(argc, argv, o); rc >= 0)
+    return rc;
   // The scene is rendered with OpenCV, whose own worker threads (TBB) would then spin on the CPUs for a while,
   // beside the frames' OpenMP threads: the pipeline uses no OpenCV threads, and the bench renders on one.
   cv::setNumThreads(0);
   const Camera cam = Camera::fromFov(512, 424, 1.2322, 1.0472);
-  const double height = 1.1, pitch = 0.26;
   Rendering rendering;
-  renderScene(cam, height, pitch, 0.0, labScene(), rendering);
+  renderScene(cam, kHeight, kPitch, 0.0, labScene(), rendering);
   cv::Mat metres = rendering.depth.clone();
   addKinectNoise(metres, 1);
-
-  struct Row
-  {
-    std::string enc, simd;
-    int threads;
-    double memcpy_ms, total, prepare, floor_fit, erode, classify, confidence;
-    double allocs;
-  };
   std::vector<Row> rows;
-  for (const int type : types)
+  for (const int type : o.types)
   {
     const cv::Mat frame = encodeDepth(metres, type, 12.0);
-    cv::Mat copy(frame.size(), frame.type());
-    const std::size_t bytes = frame.total() * frame.elemSize();
-    for (const int threads : thread_counts)
-      for (const std::string& simd : simds)
-    {
-      restrictSimd(simd);
-      const std::string ran = simd == "native" ? "native (" + simdTarget() + ")" : simdTarget();
-      Config cfg;
-      cfg.sensor_height = height;
-      cfg.sensor_pitch = pitch;
-      cfg.open_kernel_size = kernel;
-      cfg.projection = projectionFromString(projection);
-      cfg.num_threads = threads;
-      cfg.surface_band = surface_band;
-      cfg.refine_floor = refine_floor;
-      Pipeline pipe(cam, cfg);
-      FrameResult res;
-      // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
-      for (int i = 0; i < 30; ++i)
-        pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
-      std::vector<double> tm, tt, tp, tff, te, tc, tf;
-      long allocs = 0;
-      for (int i = 0; i < frames; ++i)
-      {
-        auto a = Clock::now();
-        std::memcpy(copy.data, frame.data, bytes);
-        auto b = Clock::now();
-        tm.push_back(ms(a, b));
-        const long before = g_allocations.load();
-        pipe.process(frame, 0.01 * std::sin(i * 0.3), 0.0, res);
-        allocs += g_allocations.load() - before;
-        tt.push_back(res.times.total);
-        tp.push_back(res.times.prepare);
-        tff.push_back(res.times.floor_fit);
-        te.push_back(res.times.erode);
-        tc.push_back(res.times.classify_scan);
-        tf.push_back(res.times.confidence);
-      }
-      rows.push_back({toString(type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32),
-                      ran, threads, median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
-                      static_cast<double>(allocs) / frames});
-    }
+    for (const int threads : o.thread_counts)
+      for (const std::string& simd : o.simds)
+        for (const std::string& reference : o.references)
+          rows.push_back(measure(o, cam, frame, threads, simd, reference));
   }
-
-  std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, opening %dx%d rect, %s projection, "
-              "surface_band %g, pitch changing every frame\n",
-              frames, kernel, kernel, projection.c_str(), surface_band);
-  if (markdown)
-  {
-    std::printf("| encoding | simd | threads | memcpy [ms] | prepare | (floor fit) | erode | classify+scan | confidence | "
-                "frame [ms] | frame / memcpy | floor fit / frame | speed-up vs 1 thread | allocations / frame |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-  }
-  else
-  {
-    std::printf("%-6s %-15s %3s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "simd", "thr", "memcpy", "prepare",
-                "floor fit", "erode", "classify", "conf", "frame", "x memcpy", "fit/frame", "speedup", "allocs");
-  }
-  for (std::size_t i = 0; i < rows.size(); ++i)
-  {
-    const Row& r = rows[i];
-    const std::size_t per_enc = thread_counts.size() * simds.size();
-    const double one = rows[i - i % per_enc + i % simds.size()].total;  // this encoding's and target's first thread count
-    const double speedup = one / r.total;
-    if (markdown)
-      std::printf("| %s | %s | %d | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
-                  r.enc.c_str(), r.simd.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence,
-                  r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
-    else
-      std::printf("%-6s %-15s %3d %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n", r.enc.c_str(),
-                  r.simd.c_str(), r.threads, r.memcpy_ms, r.prepare, r.floor_fit, r.erode, r.classify, r.confidence, r.total,
-                  r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total, speedup, r.allocs);
-  }
-  std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run; the floor fit is "
-              "part of prepare, and 'fit/frame' its share of the frame)\n");
+  printTable(o, rows);
   return 0;
 }

@@ -53,6 +53,21 @@ def test_the_environment_variable_restricts_the_dispatch() -> None:
     assert _targets_ran(r.stdout) == ["scalar"], r.stdout
 
 
+def test_the_bench_measures_reference_paths_beside_the_fast_paths() -> None:
+    r = _bench("--simd", "native", "--reference", "none,all,labels+opening")
+    assert r.returncode == 0, r.stderr
+    rows = re.findall(r"^16UC1\s+native \(\w+\)\s+1\s+(\S+)\s", r.stdout, re.M)
+    assert rows == ["none", "all", "labels+opening"], r.stdout
+
+
+@pytest.mark.parametrize("name", ["fast", "labels+", "labels+simd"])
+def test_a_reference_path_the_pipeline_lacks_is_refused(name: str) -> None:
+    r = _bench("--reference", f"none,{name}")
+    assert r.returncode == 2
+    assert f"'{name}'" in r.stderr and "binning" in r.stderr and "portable" in r.stderr, r.stderr
+    assert not _targets_ran(r.stdout)
+
+
 def test_python_restricts_the_dispatch_and_every_target_gives_the_same_frame() -> None:
     cam = kp.Camera.from_fov(160, 120, kp.KINECT_V2_HFOV, kp.KINECT_V2_VFOV)
     cfg = kp.Config(sensor_height=1.1, sensor_pitch=0.26)

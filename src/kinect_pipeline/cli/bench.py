@@ -30,6 +30,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="SIMD target(s) of the kernels, comma-separated, measured side by side: native, avx512, avx2, sse4, "
         "scalar (aarch64: neon, sve, sve2); the table names the one that ran (default: native)",
     )
+    p.add_argument(
+        "--reference",
+        default="none",
+        help="fast paths replaced by their plain reference, comma-separated sets measured side by side: none, all, "
+        "or labels, binning, opening, portable joined by '+' (e.g. none,labels,labels+opening); what each fast path "
+        "buys (default: none)",
+    )
     p.add_argument("--markdown", action="store_true", help="print a Markdown table (default: plain text)")
 
 
@@ -56,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
         cmd += ["--surface-band", str(args.surface_band)]
     if args.no_refine_floor:
         cmd.append("--no-refine-floor")
-    cmd += ["--simd", args.simd]
+    cmd += ["--simd", args.simd, "--reference", args.reference]
     if args.markdown:
         cmd.append("--markdown")
     return subprocess.call(cmd)
