@@ -26,7 +26,8 @@ void normalEquationsOf(const float* __restrict x, const float* __restrict y, con
     for (int j = 0; j < kNormalLanes; ++j)
     {
       const float px = x[i + j], py = y[i + j], pe = e[i + j], sigma = inv_sigma[i + j];
-      const float is = range2[i + j] <= radius2 ? sigma : 0.0f;  // both loaded: a select, no branch (SSE4 vectorises it)
+      // Both loaded, then a select: a conditional load is a branch on targets without masked loads (SSE4, NEON).
+      const float is = range2[i + j] <= radius2 ? sigma : 0.0f;
       const float u = (pe - (a + b * px + c * py)) * is * inv_window;
       const float v = std::max(0.0f, 1.0f - u * u);
       const float w = v * v * is * is;
