@@ -284,7 +284,7 @@ bool splitValues(const ValueRule<T>& label, const ValueProof& proof, int lo, int
 // ceiling (values rt1 <= v < rt2).
 template <typename T>
 RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s, std::uint8_t* __restrict lab,
-                             T* __restrict dst, const T* __restrict in, std::uint8_t* __restrict cand)
+                   T* __restrict dst, const T* __restrict in, std::uint8_t* __restrict cand)
 {
   using Tr = DepthTraits<T>;
   constexpr T none = Tr::kNoReturn;

@@ -50,9 +50,9 @@ namespace
 // (liftRow()).
 template <typename T, bool kRescue, bool kLift>
 RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const float* __restrict t,
-                                const float* __restrict fh, const float* __restrict col, float rise_row,
-                                PlaneRule rule, int w, std::uint8_t* __restrict lab, T* __restrict dst,
-                                std::uint8_t* __restrict cand)
+                      const float* __restrict fh, const float* __restrict col, float rise_row,
+                      PlaneRule rule, int w, std::uint8_t* __restrict lab, T* __restrict dst,
+                      std::uint8_t* __restrict cand)
 {
   using Tr = DepthTraits<T>;
   const T removed = Tr::removed();
@@ -84,7 +84,7 @@ RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const flo
 
 // The lift table's step of each pixel of a row under a floor profile (vectorised: no gather).
 void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_step, int last, int w,
-                         std::int32_t* __restrict k)
+               std::int32_t* __restrict k)
 {
   const float top = static_cast<float>(last);
   for (int u = 0; u < w; ++u)

@@ -45,7 +45,7 @@ void keptDepth(const T* __restrict dst, int u0, int u1, float scale, float* __re
 // z[u] = measured (raw) depth of the pixel u labelled kept, +Inf for the others and for no return, u in [u0, u1].
 template <typename T>
 void keptRawDepth(const T* __restrict in, const std::uint8_t* __restrict lab, int u0, int u1, float scale,
-                            float* __restrict z)
+                  float* __restrict z)
 {
   using Tr = DepthTraits<T>;
   for (int u = u0; u <= u1; ++u)
@@ -153,8 +153,8 @@ void pullBins(const float* range, const std::int32_t* lo, const std::int32_t* hi
 
 template <typename T>
 void belowFloorDepth(const T* __restrict src, const std::uint8_t* __restrict lab, int u0, int u1,
-                               float scale, const float* __restrict col, float row, const CliffRule& rule,
-                               float* __restrict z)
+                     float scale, const float* __restrict col, float row, const CliffRule& rule,
+                     float* __restrict z)
 {
   for (int u = u0; u <= u1; ++u)
   {

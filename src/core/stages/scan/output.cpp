@@ -88,7 +88,7 @@ namespace
 // Confidence::apply's sums over the window, beam by beam in the order of the window's slots (k outer, so that the
 // loop runs over beams in whole vectors), NaN slots left out.
 void windowSums(const float* __restrict history, int beams, int window, float* __restrict sum,
-                          std::int32_t* __restrict n)
+                std::int32_t* __restrict n)
 {
   for (int b = 0; b < beams; ++b)
   {
@@ -109,7 +109,7 @@ void windowSums(const float* __restrict history, int beams, int window, float* _
 
 // Intensity of each beam from its window's mean (see Confidence), NaN for filtered beams. Selects, no branches.
 void intensityLoop(float* __restrict ranges, const float* __restrict sum, const std::int32_t* __restrict n,
-                             int beams, float distance, float min_intensity, bool filter, float* __restrict out)
+                   int beams, float distance, float min_intensity, bool filter, float* __restrict out)
 {
   const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
   for (int b = 0; b < beams; ++b)

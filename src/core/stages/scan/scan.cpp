@@ -41,8 +41,8 @@ __attribute__((always_inline)) inline float rayRange(float x, float y, float z) 
 
 // The horizontal projection's: bin position (as edgeBinLoop for edges), bin and range of each pixel centre.
 void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by, float lo,
-                        float inv, float beams, const float* __restrict z, float* __restrict fb,
-                        std::int32_t* __restrict key, float* __restrict range)
+              float inv, float beams, const float* __restrict z, float* __restrict fb,
+              std::int32_t* __restrict key, float* __restrict range)
 {
   for (int u = u0; u <= u1; ++u)
   {
@@ -55,7 +55,7 @@ void spanLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, fl
 }
 
 void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
-                         const float* __restrict z, float* __restrict range)
+               const float* __restrict z, float* __restrict range)
 {
   for (int u = u0; u <= u1; ++u)
     range[u] = rayRange(ax * xn[u] + bx, ay * xn[u] + by, z[u]);
@@ -65,7 +65,7 @@ void rangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, f
 // root per pixel: the nearest squared range of a bin is the square of its nearest range, rooted once per beam.
 template <typename T>
 void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float ay, float bx, float by,
-                             const T* __restrict row, float scale, float* __restrict range)
+                   const T* __restrict row, float scale, float* __restrict range)
 {
   overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
     for (int u = s; u < s + n; ++u)
@@ -81,7 +81,7 @@ void keptRangeLoop(const float* __restrict xn, int u0, int u1, float ax, float a
 // X^2 + Y^2 = bx^2 + xn^2 with xn^2 from a table: the same bits with two operations fewer per pixel.
 template <typename T>
 void keptRangeLoopLevel(const float* __restrict xn2, int u0, int u1, float bx, const T* __restrict row,
-                                  float scale, float* __restrict range)
+                        float scale, float* __restrict range)
 {
   const float bx2 = bx * bx;
   overlappedBlocks<32>(u0, u1 - u0 + 1, [&](int s, int n) {
@@ -106,7 +106,7 @@ __attribute__((always_inline)) inline float clampIn(float g, float lo, float hi)
 // border crossings (the bearing's curvature over a pixel moves it by far less than a pixel).
 template <bool kUp, bool kRoll>
 void pixelLoop(const float* __restrict p, const float* __restrict q, int n, float bx, float by, float cx,
-                         int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
+               int a, int b, std::int32_t* __restrict lo, std::int32_t* __restrict hi)
 {
   const float gl = static_cast<float>(a) - 2.0f, gh = static_cast<float>(b) + 2.0f;
   overlappedBlocks<32>(0, n, [&](int s, int m) {
@@ -280,8 +280,8 @@ void pullNearest(const float* range, const std::int32_t* lo, const std::int32_t*
 
 // The column projection's: each column's bin position and range factor.
 void columnLoop(const float* __restrict cb, const float* __restrict k, int u0, int u1, float beams,
-                          const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
-                          float* __restrict range)
+                const float* __restrict z, float* __restrict fb, std::int32_t* __restrict key,
+                float* __restrict range)
 {
   for (int u = u0; u <= u1; ++u)
   {
