@@ -3,12 +3,16 @@
 // points or as text), an image (type, size, stride, contents), poses and the calls made: construct, process a few
 // frames, change config or camera between frames, reset, calibrate. Documented failures are std::invalid_argument
 // (or a subclass); any other exception, a crash, a sanitizer report or a broken output invariant is a finding.
+// The pipeline runs on a SIMD target the input picks (any this CPU has), beside a twin on the scalar target with
+// the plain loops (ReferencePaths::portable): every output must be the twin's, bit for bit (core_design.md, "Fast
+// paths and their references"), and both must refuse the same frames.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <map>
@@ -25,6 +29,7 @@
 #include "kinect_pipeline/model/threshold_curve.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/settings_exchange.h"
+#include "kinect_pipeline/simd.h"
 #include "kinect_pipeline/tools/calibration.h"
 
 using namespace kinect_pipeline;
@@ -226,6 +231,76 @@ void checkResult(const FrameResult& r, const cv::Mat& depth, const Pipeline& p, 
     check(r.cliff.ranges.empty(), "no cliff scan when cliff_scan is off");
 }
 
+/** Bit for bit, NaN equal to NaN (its payload aside). */
+bool sameFloats(const std::vector<float>& a, const std::vector<float>& b)
+{
+  if (a.size() != b.size())
+    return false;
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (!(a[i] == b[i] || (std::isnan(a[i]) && std::isnan(b[i]))) || std::signbit(a[i]) != std::signbit(b[i]))
+      return false;
+  return true;
+}
+
+bool sameImage(const cv::Mat& a, const cv::Mat& b)
+{
+  if (a.size() != b.size() || a.type() != b.type())
+    return false;
+  const std::size_t row = a.cols * a.elemSize();
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), row) != 0)
+      return false;
+  return true;
+}
+
+/** The frame of the SIMD target and that of the scalar twin with the plain loops: every output the same. */
+void checkTwin(const FrameResult& r, const FrameResult& t, const std::string& target)
+{
+  const auto same = [&](bool ok, const char* what) {
+    if (!ok)
+      finding("SIMD target " + target + " differs from the plain loops on the scalar target: " + what);
+  };
+  same(sameImage(r.labels, t.labels), "labels");
+  same(sameImage(r.depth, t.depth), "cleaned depth");
+  same(r.counts == t.counts, "label counts");
+  same(sameFloats(r.scan.ranges, t.scan.ranges), "scan ranges");
+  same(sameFloats(r.scan.intensities, t.scan.intensities), "scan intensities");
+  same(sameFloats(r.cliff.ranges, t.cliff.ranges), "cliff ranges");
+  same(r.floor_fit.status == t.floor_fit.status && r.pose.height == t.pose.height && r.pose.pitch == t.pose.pitch &&
+           r.pose.roll == t.pose.roll,
+       "floor fit");
+}
+
+/** Runs step on the target, then twin_step on the scalar target; both must throw invalid_argument or neither. */
+template <typename Step, typename TwinStep>
+void onBoth(const std::string& target, const Step& step, const TwinStep& twin_step)
+{
+  bool threw = false, twin_threw = false;
+  restrictSimd(target);
+  try
+  {
+    step();
+  }
+  catch (const std::invalid_argument&)
+  {
+    threw = true;
+  }
+  restrictSimd("scalar");
+  try
+  {
+    twin_step();
+  }
+  catch (const std::invalid_argument&)
+  {
+    twin_threw = true;
+  }
+  if (threw != twin_threw)
+    finding("SIMD target " + target + (threw ? " refused" : " took") + " what the scalar twin " +
+            (twin_threw ? "refused" : "took"));
+  if (threw)
+    throw std::invalid_argument("refused by both");
+}
+
 SensorPose pose(FuzzedDataProvider& in)
 {
   return SensorPose{number(in, 0.05, 3.0), number(in, -1.6, 1.6), number(in, -1.6, 1.6)};
@@ -233,6 +308,7 @@ SensorPose pose(FuzzedDataProvider& in)
 
 void run(FuzzedDataProvider& in)
 {
+  restrictSimd("native");  // whatever the input before left: an input replays alone as it ran
   const int what = in.ConsumeIntegralInRange<int>(0, 9);
   if (what == 0)
   {
@@ -288,15 +364,20 @@ void run(FuzzedDataProvider& in)
                  formatThresholdCurve(cfg.threshold_curve).c_str(), cfg.range_min, cfg.range_max, cfg.scan_beams,
                  cfg.scan_fov, cfg.confidence_window, cfg.confidence_distance, cfg.min_intensity,
                  cfg.intensity_filter, cfg.num_threads);
-  Pipeline p(cam, cfg);
+  static const std::vector<std::string> targets = simdTargets();
+  const std::string target = targets[in.ConsumeIntegralInRange<std::size_t>(0, targets.size() - 1)];
+  ReferencePaths plain;
+  plain.portable = true;
+  Pipeline p(cam, cfg), twin(cam, cfg, plain);
   FramePipeline fp;
   auto shared = std::make_shared<const Config>(cfg);
-  FrameResult r;
+  FrameResult r, rt;
   const int frames = in.ConsumeIntegralInRange<int>(1, 4);
   for (int f = 0; f < frames && in.remaining_bytes() > 0; ++f)
   {
     int type = 0;
     const cv::Mat depth = image(in, p.camera(), type);
+    const bool verbose = std::getenv("KP_FUZZ_VERBOSE") != nullptr;
     try
     {
       switch (in.ConsumeIntegralInRange<int>(0, 3))
@@ -304,30 +385,45 @@ void run(FuzzedDataProvider& in)
         case 0:
         {
           const double pitch = number(in, -0.5, 0.5), roll = number(in, -0.5, 0.5);
-          if (std::getenv("KP_FUZZ_VERBOSE"))
-            std::fprintf(stderr, "frame %d: %dx%d type %d, base pitch %g roll %g\n", f, depth.cols, depth.rows, type,
-                         pitch, roll);
+          if (verbose)
+            std::fprintf(stderr, "frame %d (%s): %dx%d type %d, base pitch %g roll %g\n", f, target.c_str(),
+                         depth.cols, depth.rows, type, pitch, roll);
           const double stamp = in.ConsumeBool() ? std::nan("") : number(in, -5.0, 5.0);
           const Config& c = p.config();
-          p.process(depth, pitch, roll, r, stamp);
-          checkResult(r, depth, p, {c.sensor_height, c.sensor_pitch + pitch, c.sensor_roll + roll});
+          onBoth(
+              target,
+              [&] {
+                p.process(depth, pitch, roll, r, stamp);
+                checkResult(r, depth, p, {c.sensor_height, c.sensor_pitch + pitch, c.sensor_roll + roll});
+              },
+              [&] { twin.process(depth, pitch, roll, rt, stamp); });
+          checkTwin(r, rt, target);
           break;
         }
         case 1:
         {
           const SensorPose sp = pose(in);
-          if (std::getenv("KP_FUZZ_VERBOSE"))
-            std::fprintf(stderr, "frame %d: %dx%d type %d, pose %g %g %g\n", f, depth.cols, depth.rows, type,
-                         sp.height, sp.pitch, sp.roll);
-          p.process(depth, sp, r, number(in, -5.0, 5.0));
-          checkResult(r, depth, p, sp);
+          if (verbose)
+            std::fprintf(stderr, "frame %d (%s): %dx%d type %d, pose %g %g %g\n", f, target.c_str(), depth.cols,
+                         depth.rows, type, sp.height, sp.pitch, sp.roll);
+          const double stamp = number(in, -5.0, 5.0);
+          onBoth(
+              target,
+              [&] {
+                p.process(depth, sp, r, stamp);
+                checkResult(r, depth, p, sp);
+              },
+              [&] { twin.process(depth, sp, rt, stamp); });
+          checkTwin(r, rt, target);
           break;
         }
         case 2:
+          restrictSimd(target);
           fp.process(shared, p.camera(), depth, pose(in), r);
           break;
         default:
           p.reset();
+          twin.reset();
           break;
       }
     }
@@ -341,11 +437,14 @@ void run(FuzzedDataProvider& in)
       if (change == 1)
       {
         const Config next = config(in);
-        p.setConfig(next);
+        onBoth(target, [&] { p.setConfig(next); }, [&] { twin.setConfig(next); });
         shared = std::make_shared<const Config>(next);
       }
       else if (change == 2)
-        p.setCamera(camera(in));
+      {
+        const Camera next = camera(in);
+        onBoth(target, [&] { p.setCamera(next); }, [&] { twin.setCamera(next); });
+      }
     }
     catch (const std::invalid_argument&)
     {
