@@ -11,7 +11,8 @@
 #   --qemu-cpu CPU
 #                 qemu's -cpu (default 'max,sve=off': an ARMv8 CPU without SVE, so the tests run the NEON and
 #                 scalar targets, in about 90 s); 'max' has SVE and SVE2 too, and the tests run those targets as
-#                 well (qemu emulates SVE about 8x slower: about 15 min). Every target is compiled either way.
+#                 well (qemu emulates SVE about 8x slower: about 15 min; the test command runs only the
+#                 every-target tests there, '*EveryTarget*', about 30 s). Every target is compiled either way.
 #
 # What it does:
 #   1. apt (as root): the host's cross tools: g++-aarch64-linux-gnu (brings libgomp and libstdc++ for aarch64),

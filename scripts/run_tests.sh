@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of the package: C++ gtest (and rostest) through catkin, the core under ASan + UBSan, its
 # threaded paths under TSan, a short libFuzzer run of the C++ entry point, the core's gtests cross-built for
-# aarch64 under qemu (scripts/cross_aarch64.sh), then pytest.
+# aarch64 under qemu (scripts/cross_aarch64.sh; the every-target tests on SVE and SVE2 too), then pytest.
 # Expects the build from scripts/quickstart.sh; use 'bash scripts/quickstart.sh test' on a fresh machine.
 set -euo pipefail
 ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -96,6 +96,24 @@ bash scripts/cross_aarch64.sh >build/aarch64_run.log 2>&1 || arm_status=$?
 grep -E "^== times|SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_run.log | sort -u | head -20
 [ "$arm_status" -eq 0 ] || tail -40 build/aarch64_run.log
 
+# qemu's SVE is slow: only the tests that hold every target to the plain loops, on an emulated CPU with SVE and SVE2.
+echo "== the every-target gtests for aarch64 under qemu -cpu max (SVE2, SVE, NEON and scalar targets) =="
+sve_status=0
+rm -f build/aarch64/test_core_sve.xml
+if [ "$arm_status" -eq 0 ]; then
+  bash scripts/cross_aarch64.sh --no-install --qemu-cpu max -- --gtest_filter='*EveryTarget*' \
+    --gtest_output=xml:build/aarch64/test_core_sve.xml >build/aarch64_sve.log 2>&1 || sve_status=$?
+  grep -E "SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_sve.log | sort -u | head -10
+  # A run that never reached SVE would pass on NEON alone.
+  if [ "$sve_status" -eq 0 ] && ! grep -q "SIMD targets run: sve2, sve, neon, scalar" build/aarch64_sve.log; then
+    echo "the SVE run did not run the SVE targets (build/aarch64_sve.log)"
+    sve_status=1
+  fi
+  [ "$sve_status" -eq 0 ] || tail -40 build/aarch64_sve.log
+else
+  echo "skipped: the aarch64 build above failed"
+fi
+
 echo "== Python tests (pytest) =="
 py_status=0
 python3 -m pytest test/python -q -p no:cacheprovider --junitxml=build/pytest.xml || py_status=$?
@@ -105,7 +123,8 @@ import glob
 import xml.etree.ElementTree as ET
 counts = {"passed": 0, "failed": 0, "skipped": 0}
 totals = {"cpp": 0, "py": 0}
-sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml", "build/aarch64/test_core.xml"]
+sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml", "build/aarch64/test_core.xml",
+              "build/aarch64/test_core_sve.xml"]
 for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + sanitizers + ["build/pytest.xml"]:
     try:
         root = ET.parse(path).getroot()
@@ -123,6 +142,6 @@ print(counts["passed"], counts["failed"], counts["skipped"], totals["cpp"], tota
 PY
 )"
 echo "kinect_pipeline: $passed passed, $failed failed, $skipped skipped"
-if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$tsan_status" -ne 0 ] || [ "$fuzz_status" -ne 0 ] || [ "$arm_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
+if [ "$cpp_status" -ne 0 ] || [ "$san_status" -ne 0 ] || [ "$tsan_status" -ne 0 ] || [ "$fuzz_status" -ne 0 ] || [ "$arm_status" -ne 0 ] || [ "$sve_status" -ne 0 ] || [ "$py_status" -ne 0 ] || [ "$failed" -ne 0 ] || [ "$cpp_total" -eq 0 ] || [ "$py_total" -eq 0 ]; then
   exit 1
 fi
