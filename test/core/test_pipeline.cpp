@@ -563,8 +563,8 @@ TEST(PipelineEdge, OneAndTwoThreadsGiveTheSameFrame)
 
 // Every SIMD target this CPU has gives the reference's bits: scan, cliff scan, labels, cleaned depth and counts,
 // against the plain loops (ReferencePaths::portable) on the scalar target, with few and with many beams (bins of
-// several pixels each, and bins narrower than a pixel), in 8 and 16 bits, with roll and without (rows labelled by
-// value, crossings without the roll's product), at widths of whole vectors and not.
+// several pixels each, and bins narrower than a pixel), in 8 and 16 bits and float, with roll and without (rows
+// labelled by value, crossings without the roll's product), at widths of whole vectors and not.
 TEST(PipelineEdge, EveryTargetGivesThePlainLoopsFrame)
 {
   int finite = 0;
@@ -573,7 +573,7 @@ TEST(PipelineEdge, EveryTargetGivesThePlainLoopsFrame)
   for (const Camera& cam : {kinect(), Camera::fromFov(100, 83, 1.2322, 1.0472), Camera::fromFov(40, 33, 1.2322, 1.0472)})
   {
   const cv::Mat metres = noisyTiltedLab(cam, 7);
-  for (const int type : {CV_16UC1, CV_8UC1})
+  for (const int type : {CV_16UC1, CV_8UC1, CV_32FC1})
     for (const double roll : {0.02, 0.0})
       for (const int beams : {0, 60, 1500})
       {
