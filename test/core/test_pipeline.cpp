@@ -561,56 +561,101 @@ TEST(PipelineEdge, OneAndTwoThreadsGiveTheSameFrame)
   }
 }
 
-// Every SIMD target this CPU has gives the reference's bits: scan, cliff scan, labels, cleaned depth and counts,
-// against the plain loops (ReferencePaths::portable) on the scalar target, with few and with many beams (bins of
-// several pixels each, and bins narrower than a pixel), in 8 and 16 bits and float, with roll and without (rows
-// labelled by value, crossings without the roll's product), at widths of whole vectors and not.
+// Ranges bit for bit (NaN equal to NaN). @return how many of a's are finite.
+static int expectSameRanges(const std::vector<float>& a, const std::vector<float>& b, const std::string& where)
+{
+  EXPECT_EQ(a.size(), b.size()) << where;
+  int finite = 0;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i)
+  {
+    EXPECT_TRUE(a[i] == b[i] || (std::isnan(a[i]) && std::isnan(b[i]))) << where << ", beam " << i << ": " << a[i]
+                                                                         << " vs " << b[i];
+    finite += std::isfinite(a[i]);
+  }
+  return finite;
+}
+
+// The frame on the SIMD target in force, and on the scalar target with the plain loops (ReferencePaths::portable):
+// labels, cleaned depth, counts, scan, intensities and cliff scan the same bits. @return the scan's finite beams.
+static int expectPlainLoopsFrame(const Camera& cam, const Config& cfg, const cv::Mat& frame, double roll,
+                                 const std::string& where)
+{
+  ReferencePaths portable;
+  portable.portable = true;
+  Pipeline a(cam, cfg), b(cam, cfg, portable);
+  FrameResult ra, rb;
+  a.process(frame, 0.0, roll, ra);
+  const std::string target = simdTarget();
+  restrictSimd("scalar");
+  b.process(frame, 0.0, roll, rb);
+  restrictSimd(target);
+  EXPECT_EQ(cv::countNonZero(ra.labels != rb.labels), 0) << where;
+  EXPECT_EQ(std::memcmp(ra.depth.data, rb.depth.data, ra.depth.total() * ra.depth.elemSize()), 0) << where;
+  EXPECT_EQ(ra.counts, rb.counts) << where;
+  EXPECT_EQ(ra.scan.intensities, rb.scan.intensities) << where;
+  expectSameRanges(ra.cliff.ranges, rb.cliff.ranges, where + ", cliff");
+  return expectSameRanges(ra.scan.ranges, rb.scan.ranges, where);
+}
+
+// Every SIMD target this CPU has gives the reference's bits against the plain loops on the scalar target, with few
+// and with many beams (bins of several pixels each, and bins narrower than a pixel), in 8 and 16 bits and float,
+// with roll and without (rows labelled by value, crossings without the roll's product), at widths of whole vectors
+// and not.
 TEST(PipelineEdge, EveryTargetGivesThePlainLoopsFrame)
 {
   int finite = 0;
   const auto ran = kp_test::forEachSimdTarget([&](const std::string& target) {
-  // Widths of whole vectors (512), with a remainder (100) and narrower than a vector of 8-bit pixels (40).
-  for (const Camera& cam : {kinect(), Camera::fromFov(100, 83, 1.2322, 1.0472), Camera::fromFov(40, 33, 1.2322, 1.0472)})
-  {
-  const cv::Mat metres = noisyTiltedLab(cam, 7);
-  for (const int type : {CV_16UC1, CV_8UC1, CV_32FC1})
-    for (const double roll : {0.02, 0.0})
-      for (const int beams : {0, 60, 1500})
-      {
-        const cv::Mat frame = encodeDepth(metres, type, 12.0);
-        Config cfg;
-        cfg.sensor_pitch = 0.3;
-        cfg.scan_beams = beams;
-        ReferencePaths portable;
-        portable.portable = true;
-        Pipeline a(cam, cfg), b(cam, cfg, portable);
-        FrameResult ra, rb;
-        a.process(frame, 0.0, roll, ra);
-        restrictSimd("scalar");
-        b.process(frame, 0.0, roll, rb);
-        restrictSimd(target);
-        const std::string where = target + ", width " + std::to_string(cam.width) + ", type " + std::to_string(type) +
-                                  ", roll " + std::to_string(roll) + ", beams " + std::to_string(beams);
-        ASSERT_EQ(cv::countNonZero(ra.labels != rb.labels), 0) << where;
-        ASSERT_EQ(std::memcmp(ra.depth.data, rb.depth.data, ra.depth.total() * ra.depth.elemSize()), 0) << where;
-        ASSERT_EQ(ra.counts, rb.counts) << where;
-        ASSERT_EQ(ra.scan.ranges.size(), rb.scan.ranges.size());
-        for (std::size_t i = 0; i < ra.scan.ranges.size(); ++i)
-        {
-          const float x = ra.scan.ranges[i], y = rb.scan.ranges[i];
-          ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << where << " beam " << i << ": " << x << " vs " << y;
-          finite += std::isfinite(x);
-        }
-        for (std::size_t i = 0; i < ra.cliff.ranges.size(); ++i)
-        {
-          const float x = ra.cliff.ranges[i], y = rb.cliff.ranges[i];
-          ASSERT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << where << " cliff beam " << i;
-        }
-      }
-  }
+    // Widths of whole vectors (512), with a remainder (100) and narrower than a vector of 8-bit pixels (40).
+    for (const Camera& cam :
+         {kinect(), Camera::fromFov(100, 83, 1.2322, 1.0472), Camera::fromFov(40, 33, 1.2322, 1.0472)})
+    {
+      const cv::Mat metres = noisyTiltedLab(cam, 7);
+      for (const int type : {CV_16UC1, CV_8UC1, CV_32FC1})
+        for (const double roll : {0.02, 0.0})
+          for (const int beams : {0, 60, 1500})
+          {
+            Config cfg;
+            cfg.sensor_pitch = 0.3;
+            cfg.scan_beams = beams;
+            finite += expectPlainLoopsFrame(cam, cfg, encodeDepth(metres, type, 12.0), roll,
+                                            target + ", width " + std::to_string(cam.width) + ", type " +
+                                                std::to_string(type) + ", roll " + std::to_string(roll) +
+                                                ", beams " + std::to_string(beams));
+          }
+    }
   });
   EXPECT_GE(ran.size(), 2u);
-  EXPECT_GT(finite, 4000 * static_cast<int>(ran.size()));
+  EXPECT_GT(finite, 20000 * static_cast<int>(ran.size()));
+}
+
+// The same in the other modes: the column projection, and the surface band's second pass over each span's depths
+// with the intensity filter.
+TEST(PipelineEdge, EveryTargetGivesThePlainLoopsFrameInOtherModes)
+{
+  const Camera cam = Camera::fromFov(100, 83, 1.2322, 1.0472);
+  const cv::Mat metres = noisyTiltedLab(cam, 11);
+  int finite = 0;
+  const auto ran = kp_test::forEachSimdTarget([&](const std::string& target) {
+    for (const int type : {CV_16UC1, CV_8UC1, CV_32FC1})
+      for (const double roll : {0.02, 0.0})
+        for (const bool column : {true, false})
+        {
+          Config cfg;
+          cfg.sensor_pitch = 0.3;
+          if (column)
+            cfg.projection = Projection::kColumn;
+          else
+          {
+            cfg.surface_band = 0.5;
+            cfg.intensity_filter = true;
+          }
+          finite += expectPlainLoopsFrame(cam, cfg, encodeDepth(metres, type, 12.0), roll,
+                                          target + ", type " + std::to_string(type) + ", roll " +
+                                              std::to_string(roll) + (column ? ", column" : ", surface band"));
+        }
+  });
+  EXPECT_GE(ran.size(), 2u);
+  EXPECT_GT(finite, 800 * static_cast<int>(ran.size()));
 }
 
 // The rescue looks only at pixels whose raw value lies rescueMove(t(t1)) values or more above the opened one: every
