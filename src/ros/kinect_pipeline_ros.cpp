@@ -82,6 +82,14 @@ KinectPipelineRos::KinectPipelineRos(ros::NodeHandle nh, ros::NodeHandle pnh, co
     ROS_WARN("%s: %s", name_.c_str(), w.c_str());
   applySensorModelParameters(pnh_, name_);  // the preset's values are then checked as if the user had set them
   startupSettings(pnh_, name_);
+  try  // KINECT_PIPELINE_SIMD (kinect_pipeline/simd.h): a target this CPU lacks would refuse every frame
+  {
+    ROS_INFO("%s: SIMD target %s", name_.c_str(), simdTarget().c_str());
+  }
+  catch (const std::invalid_argument& e)
+  {
+    throw StartupError(name_ + ": not starting: " + e.what());
+  }
   const std::string transport = checkTransport();
   transport_ = transport;
   image_topic_ = nh_.resolveName("image");

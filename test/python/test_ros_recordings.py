@@ -228,6 +228,29 @@ def test_camera_parameters_it_cannot_honour_stop_it_naming_the_value(
     assert not _subscribed(ros, f"{NS}/image")
 
 
+# -------------------------------------------------------------- KINECT_PIPELINE_SIMD: named at startup, or refused
+@pytest.mark.parametrize(("kind", "target"), [("node", "mmx"), ("nodelet", "mmx"), ("node", "scalar")])
+def test_the_simd_target_is_named_at_startup_and_one_the_cpu_lacks_stops_it(
+    ros: RosGraph, kind: str, target: str
+) -> None:
+    ros.env["KINECT_PIPELINE_SIMD"] = target  # the launch's and the manager's environment
+    try:
+        _launch(ros, kind, "raw")
+        if target == "mmx":
+            wait_for("the node / loader to exit 1", lambda: "exit code 1" in ros.log("launch"))
+        else:
+            res = _listen(ros, "diag('SIMD target', 'processing') is not None")
+    finally:
+        del ros.env["KINECT_PIPELINE_SIMD"]
+    text = ros.log("launch") + ros.log("manager")
+    if target == "mmx":
+        said = [ln for ln in text.splitlines() if "not starting: KINECT_PIPELINE_SIMD: SIMD target 'mmx'" in ln]
+        assert said and "expected native or one this CPU has (" in said[0], text[-3000:]
+        assert not _subscribed(ros, f"{NS}/image")
+    else:
+        assert newest(res, PROC, "SIMD target") == "scalar"
+
+
 # -------------------------------------------------------------- a camera_info of its own stamps: paired by recency
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_an_unchanging_camera_info_with_other_stamps_is_paired_by_recency(ros: RosGraph, kind: str) -> None:
