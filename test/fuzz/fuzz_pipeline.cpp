@@ -4,7 +4,8 @@
 // frames, change config or camera between frames, reset, calibrate. Documented failures are std::invalid_argument
 // (or a subclass); any other exception, a crash, a sanitizer report or a broken output invariant is a finding.
 // The pipeline runs on a SIMD target the input picks (any this CPU has), beside a twin on the scalar target with
-// the plain loops (ReferencePaths::portable): every output must be the twin's, bit for bit (core_design.md, "Fast
+// the references of every fast path that claims the same bits (ReferencePaths: labels, opening, portable; not
+// binning, whose bins may differ at a border): every output must be the twin's, bit for bit (core_design.md, "Fast
 // paths and their references"), and both must refuse the same frames.
 #include <fuzzer/FuzzedDataProvider.h>
 
@@ -253,12 +254,14 @@ bool sameImage(const cv::Mat& a, const cv::Mat& b)
   return true;
 }
 
-/** The frame of the SIMD target and that of the scalar twin with the plain loops: every output the same. */
+/** The frame of the SIMD target with the fast paths and that of the scalar twin with their references: every
+ *  output the same. */
 void checkTwin(const FrameResult& r, const FrameResult& t, const std::string& target)
 {
   const auto same = [&](bool ok, const char* what) {
     if (!ok)
-      finding("SIMD target " + target + " differs from the plain loops on the scalar target: " + what);
+      finding("SIMD target " + target + " with the fast paths differs from the references on the scalar target: " +
+              what);
   };
   same(sameImage(r.labels, t.labels), "labels");
   same(sameImage(r.depth, t.depth), "cleaned depth");
@@ -366,8 +369,8 @@ void run(FuzzedDataProvider& in)
                  cfg.intensity_filter, cfg.num_threads);
   static const std::vector<std::string> targets = simdTargets();
   const std::string target = targets[in.ConsumeIntegralInRange<std::size_t>(0, targets.size() - 1)];
-  ReferencePaths plain;
-  plain.portable = true;
+  ReferencePaths plain = ReferencePaths::all();
+  plain.binning = false;
   Pipeline p(cam, cfg), twin(cam, cfg, plain);
   FramePipeline fp;
   auto shared = std::make_shared<const Config>(cfg);
