@@ -658,6 +658,20 @@ TEST(PipelineEdge, EveryTargetGivesThePlainLoopsFrameInOtherModes)
   EXPECT_GT(finite, 800 * static_cast<int>(ran.size()));
 }
 
+// forEachSimdTarget gives back the target in force before it: KINECT_PIPELINE_SIMD's where that names one
+// (test_simd.py runs this test under KINECT_PIPELINE_SIMD=scalar), else the CPU's best.
+TEST(PipelineEdge, EveryTargetRunGivesBackTheTargetInForce)
+{
+  const std::string before = simdTarget();
+  EXPECT_EQ(kp_test::forEachSimdTarget([](const std::string&) {}), simdTargets());
+  EXPECT_EQ(simdTarget(), before);
+  const char* env = std::getenv("KINECT_PIPELINE_SIMD");
+  if (env != nullptr && *env != '\0' && std::string(env) != "native")
+    EXPECT_EQ(before, env);
+  else
+    EXPECT_EQ(before, simdTargets().front());
+}
+
 // The rescue looks only at pixels whose raw value lies rescueMove(t(t1)) values or more above the opened one: every
 // pair nearer than that fails the rescue's own test, fl(fl(raw s) - fl(v s)) > t(raw), for raw values from t1 up
 // (non-decreasing tables), with the default curve and others, at several max_depth values (8-bit: every pair;

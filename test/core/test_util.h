@@ -163,14 +163,17 @@ namespace kp_test
 {
 /**
  * Runs check(target) under each SIMD target this CPU has (kinect_pipeline::simdTargets(): every one the dispatch
- * can pick here), then gives the dispatch back its choice of target. The targets it ran, for the test to assert on.
+ * can pick here), then restores the target in force before: KINECT_PIPELINE_SIMD's, so that the tests after it run
+ * on the target it names, or the CPU's best. The targets it ran, for the test to assert on.
  */
 inline std::vector<std::string> forEachSimdTarget(const std::function<void(const std::string&)>& check)
 {
-  struct Native
+  struct Restore
   {
-    ~Native() { kinect_pipeline::restrictSimd("native"); }
-  } native;
+    std::string target;
+    ~Restore() { kinect_pipeline::restrictSimd(target); }
+  } restore{kinect_pipeline::simdTarget() == kinect_pipeline::simdTargets().front() ? "native"
+                                                                                     : kinect_pipeline::simdTarget()};
   std::vector<std::string> ran;
   for (const std::string& t : kinect_pipeline::simdTargets())
   {

@@ -53,6 +53,21 @@ def test_the_environment_variable_restricts_the_dispatch() -> None:
     assert _targets_ran(r.stdout) == ["scalar"], r.stdout
 
 
+def test_the_environment_variable_holds_for_the_core_tests_after_an_every_target_test() -> None:
+    test_core = os.path.join(os.path.dirname(BENCH), "test_core")
+    assert os.path.exists(test_core), "the core's gtests are built with the package (scripts/quickstart.sh build)"
+    name = "PipelineEdge.EveryTargetRunGivesBackTheTargetInForce"
+    r = subprocess.run(
+        [test_core, f"--gtest_filter={name}"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "KINECT_PIPELINE_SIMD": "scalar"},
+    )
+    assert r.returncode == 0, r.stdout[-3000:]
+    assert f"[       OK ] {name}" in r.stdout and "[  PASSED  ] 1 test" in r.stdout, r.stdout[-3000:]
+
+
 def test_the_bench_measures_reference_paths_beside_the_fast_paths() -> None:
     r = _bench("--simd", "native", "--reference", "none,all,labels+opening")
     assert r.returncode == 0, r.stderr
