@@ -3,9 +3,11 @@ environment variable does the same for a process; bad names are refused, naming 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import subprocess
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -22,6 +24,16 @@ BENCH = str(bench_binary())
 def _bench(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess[str]:
     cmd = [BENCH, "--frames", "3", "--threads", "1", "--encodings", "16UC1", *args]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120, env={**os.environ, **(env or {})})
+
+
+@contextlib.contextmanager
+def _target_kept() -> Iterator[str]:
+    """Gives back the target in force before (KINECT_PIPELINE_SIMD's, or the CPU's best) whatever the body does."""
+    before = kp.simd_target()
+    try:
+        yield before
+    finally:
+        kp.restrict_simd("native" if before == kp.simd_targets()[0] else before)
 
 
 def _targets_ran(out: str) -> list[str]:
@@ -91,15 +103,13 @@ def test_python_restricts_the_dispatch_and_every_target_gives_the_same_frame() -
     targets = kp.simd_targets()
     assert targets[-1] == "scalar" and len(targets) >= 2, targets
     results = {}
-    try:
+    with _target_kept() as before:
         for t in targets:
             kp.restrict_simd(t)
             assert kp.simd_target() == t
             r = kp.Pipeline(cam, cfg).process(frame, 0.0, 0.0)
             results[t] = (np.asarray(r.labels).copy(), np.asarray(r.ranges).copy())
-    finally:
-        kp.restrict_simd("native")
-    assert kp.simd_target() == targets[0]
+    assert kp.simd_target() == before
     first = results[targets[0]]
     for t, (labels, ranges) in results.items():
         assert np.array_equal(labels, first[0]), t
@@ -122,7 +132,7 @@ def test_real_realsense_frames_give_the_same_bits_on_every_target() -> None:
         ceiling_height=max(2.0, fp["height"] + 0.5),
     )
     outputs: dict[str, list[tuple[np.ndarray, ...]]] = {}
-    try:
+    with _target_kept():
         for t in kp.simd_targets():
             kp.restrict_simd(t)
             pipe = kp.Pipeline(RS_CAM, cfg)
@@ -137,8 +147,6 @@ def test_real_realsense_frames_give_the_same_bits_on_every_target() -> None:
                         np.asarray(r.cliff_ranges).copy(),
                     )
                 )
-    finally:
-        kp.restrict_simd("native")
     first = next(iter(outputs.values()))
     for t, frames_out in outputs.items():
         for i, (got, want) in enumerate(zip(frames_out, first, strict=True)):
