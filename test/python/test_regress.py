@@ -6,6 +6,7 @@ import pytest
 
 pytest.importorskip("rosbags")
 
+import kinect_pipeline as kp
 from kinect_pipeline.cli import main
 from kinect_pipeline.evaluation.regress import CASES, GOLDEN_DIR
 
@@ -19,6 +20,19 @@ def test_golden_files_are_small_and_present() -> None:
 
 def test_regress_passes_on_the_current_pipeline(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["regress"]) == 0, capsys.readouterr().err
+    assert capsys.readouterr().out.count(": ok") == len(CASES)
+
+
+@pytest.mark.parametrize("target", kp.simd_targets()[1:])
+def test_regress_passes_on_every_other_simd_target(target: str, capsys: pytest.CaptureFixture[str]) -> None:
+    # The golden outputs hold on every SIMD target (the exact cases bit for bit), not only on the best one.
+    before = kp.simd_target()
+    kp.restrict_simd(target)
+    try:
+        assert kp.simd_target() == target
+        assert main(["regress"]) == 0, capsys.readouterr().err
+    finally:
+        kp.restrict_simd("native" if before == kp.simd_targets()[0] else before)
     assert capsys.readouterr().out.count(": ok") == len(CASES)
 
 
