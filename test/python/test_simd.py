@@ -14,7 +14,7 @@ import pytest
 
 import kinect_pipeline as kp
 from kinect_pipeline.cli.bench import bench_binary
-from kinect_pipeline.evaluation.real_floors import RS_CAM, shared_realsense_frames
+from kinect_pipeline.evaluation.real_floors import RS_CAM, calibrated_config, shared_realsense_frames
 
 REAL = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data", "real")
 
@@ -121,16 +121,8 @@ def test_real_realsense_frames_give_the_same_bits_on_every_target() -> None:
     # Real depth, 16-bit: rows labelled by value (no roll) and pixel by pixel (roll), the floor profile learning.
     frames = shared_realsense_frames(os.path.join(REAL, "realsense_lowcam"))[:4]
     assert len(frames) == 4, f"the shared RealSense frames are missing under {REAL}"
-    metres = np.where(frames[0] > 0, frames[0] / 1000.0, np.inf).astype(np.float32)
-    fp = kp._core.calibrate_from_floor(metres, RS_CAM)  # the floor the first frame holds
-    assert fp["found"], fp
-    cfg = kp.Config(
-        sensor_model="realsense_d4xx",
-        sensor_height=fp["height"],
-        sensor_pitch=fp["pitch"],
-        sensor_roll=fp["roll"],
-        ceiling_height=max(2.0, fp["height"] + 0.5),
-    )
+    cfg = calibrated_config(frames[0])  # the floor the first frame holds
+    assert cfg is not None, "the core's floor calibration finds the first frame's floor"
     outputs: dict[str, list[tuple[np.ndarray, ...]]] = {}
     with _target_kept():
         for t in kp.simd_targets():

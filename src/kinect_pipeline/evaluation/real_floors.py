@@ -125,22 +125,30 @@ def shared_realsense_frames(folder: str) -> list[np.ndarray]:
     return [cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sorted(glob.glob(os.path.join(folder, "depth", "*.png")))]
 
 
+def calibrated_config(depth: np.ndarray, min_floor: float = 0.0) -> _core.Config | None:
+    """The sensor's preset at the floor a real RealSense frame (16-bit mm) holds, as the core's floor calibration
+    finds it; None if it finds none, or one covering less than ``min_floor`` of the image."""
+    metres = np.where(depth > 0, depth / 1000.0, np.inf).astype(np.float32)
+    fp = _core.calibrate_from_floor(metres, RS_CAM)
+    if not fp["found"] or fp["floor_fraction"] < min_floor:
+        return None
+    return _core.Config(
+        sensor_model="realsense_d4xx",
+        sensor_height=fp["height"],
+        sensor_pitch=fp["pitch"],
+        sensor_roll=fp["roll"],
+        ceiling_height=max(2.0, fp["height"] + 0.5),
+    )
+
+
 def real_frames_false_cliffs(frames: list[np.ndarray]) -> list[float]:
     """Per real RealSense frame whose floor calibrate trusts (found, >= 20 % of the image), the share of cliff
     beams, told that floor, with the sensor's preset (the frames hold no hole and no stair)."""
     out = []
     for depth in frames:
-        metres = np.where(depth > 0, depth / 1000.0, np.inf).astype(np.float32)
-        fp = _core.calibrate_from_floor(metres, RS_CAM)
-        if not fp["found"] or fp["floor_fraction"] < 0.2:
+        cfg = calibrated_config(depth, min_floor=0.2)
+        if cfg is None:
             continue
-        cfg = _core.Config(
-            sensor_model="realsense_d4xx",
-            sensor_height=fp["height"],
-            sensor_pitch=fp["pitch"],
-            sensor_roll=fp["roll"],
-            ceiling_height=max(2.0, fp["height"] + 0.5),
-        )
         res = _core.Pipeline(RS_CAM, cfg).process(depth)
         out.append(float(np.isfinite(res.cliff_ranges).mean()))
     return out
