@@ -11,12 +11,15 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <new>
 #include <cmath>
+#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core/utility.hpp>
@@ -114,6 +117,58 @@ struct Options
   bool simd_from_env = false;  // KINECT_PIPELINE_SIMD gave the one target (its name goes into an error)
 };
 
+// The whole of text as an integer in [lo, hi] (atoi would take "abc" for 0 and "3x" for 3).
+bool integerIn(const char* text, long lo, long hi, int& out)
+{
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(text, &end, 10);
+  if (end == text || *end != '\0' || errno != 0 || v < lo || v > hi)
+    return false;
+  out = static_cast<int>(v);
+  return true;
+}
+
+// The pipeline's settings of one row of the table.
+Config benchConfig(const Options& o, int threads)
+{
+  Config cfg;
+  cfg.sensor_height = kHeight;
+  cfg.sensor_pitch = kPitch;
+  cfg.open_kernel_size = o.kernel;
+  cfg.projection = projectionFromString(o.projection);
+  cfg.num_threads = threads;
+  cfg.surface_band = o.surface_band;
+  cfg.refine_floor = o.refine_floor;
+  return cfg;
+}
+
+// What parseOptions cannot check option by option: a list that names nothing (nothing would be measured), and
+// settings the pipeline refuses (Config::validate's message). @return false, with the message on stderr.
+bool checkOptions(const Options& o, const char* simd_option)
+{
+  const std::pair<const char*, bool> lists[] = {{"--encodings", o.types.empty()},
+                                                {"--threads", o.thread_counts.empty()},
+                                                {simd_option, o.simds.empty()},
+                                                {"--reference", o.references.empty()}};
+  for (const auto& [name, empty] : lists)
+    if (empty)
+    {
+      std::fprintf(stderr, "%s: names nothing to measure: expected a comma-separated list of one or more\n", name);
+      return false;
+    }
+  try
+  {
+    benchConfig(o, o.thread_counts.front()).validate();
+  }
+  catch (const std::invalid_argument& e)
+  {
+    std::fprintf(stderr, "%s\n", e.what());
+    return false;
+  }
+  return true;
+}
+
 // @return -1 to go on, else the exit status (after --help, or a bad option with its message on stderr).
 int parseOptions(int argc, char** argv, Options& o)
 {
@@ -126,11 +181,30 @@ int parseOptions(int argc, char** argv, Options& o)
     const std::string a = argv[i];
     const bool value = i + 1 < argc;
     if (a == "--frames" && value)
-      o.frames = std::atoi(argv[++i]);
+    {
+      if (!integerIn(argv[++i], 1, 1000000, o.frames))
+      {
+        std::fprintf(stderr, "--frames: '%s' is not a frame count 1..1000000\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--kernel" && value)
-      o.kernel = std::atoi(argv[++i]);
+    {
+      if (!integerIn(argv[++i], 0, 31, o.kernel))
+      {
+        std::fprintf(stderr, "--kernel: '%s' is not an opening kernel size 0..31 px\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--projection" && value)
+    {
       o.projection = argv[++i];
+      if (o.projection != "horizontal" && o.projection != "column")
+      {
+        std::fprintf(stderr, "--projection: '%s' is not horizontal or column\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--encodings" && value)
     {
       // A comma-separated subset of 8UC1,16UC1,32FC1 (profiling one encoding).
@@ -147,7 +221,15 @@ int parseOptions(int argc, char** argv, Options& o)
       }
     }
     else if (a == "--surface-band" && value)
-      o.surface_band = std::atof(argv[++i]);
+    {
+      char* end = nullptr;
+      o.surface_band = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0')
+      {
+        std::fprintf(stderr, "--surface-band: '%s' is not a number\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--no-refine-floor")
       o.refine_floor = false;
     else if (a == "--markdown")
@@ -175,8 +257,8 @@ int parseOptions(int argc, char** argv, Options& o)
       o.thread_counts.clear();
       for (const std::string& t : commaList(argv[++i]))
       {
-        const int n = std::atoi(t.c_str());
-        if (n < 1 || n > 1024)
+        int n = 0;
+        if (!integerIn(t.c_str(), 1, 1024, n))
         {
           std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.c_str());
           return 2;
@@ -193,6 +275,8 @@ int parseOptions(int argc, char** argv, Options& o)
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
+  if (!checkOptions(o, o.simd_from_env ? "KINECT_PIPELINE_SIMD" : "--simd"))
+    return 2;
   for (const std::string& t : o.simds)
     try
     {
@@ -221,15 +305,7 @@ Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, int threa
   restrictSimd(simd);
   ReferencePaths paths;
   parseReference(reference, paths);
-  Config cfg;
-  cfg.sensor_height = kHeight;
-  cfg.sensor_pitch = kPitch;
-  cfg.open_kernel_size = o.kernel;
-  cfg.projection = projectionFromString(o.projection);
-  cfg.num_threads = threads;
-  cfg.surface_band = o.surface_band;
-  cfg.refine_floor = o.refine_floor;
-  Pipeline pipe(cam, cfg, paths);
+  Pipeline pipe(cam, benchConfig(o, threads), paths);
   FrameResult res;
   // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
   for (int i = 0; i < 30; ++i)
@@ -262,9 +338,11 @@ Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, int threa
 
 void printTable(const Options& o, const std::vector<Row>& rows)
 {
-  std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, opening %dx%d rect, %s projection, "
-              "surface_band %g, pitch changing every frame\n",
-              o.frames, o.kernel, o.kernel, o.projection.c_str(), o.surface_band);
+  const std::string opening =
+      o.kernel < 3 ? "no opening" : "opening " + std::to_string(o.kernel) + "x" + std::to_string(o.kernel) + " rect";
+  std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, %s, %s projection, surface_band %g, pitch "
+              "changing every frame\n",
+              o.frames, opening.c_str(), o.projection.c_str(), o.surface_band);
   if (o.markdown)
   {
     std::printf("| encoding | simd | threads | reference paths | memcpy [ms] | prepare | (floor fit) | erode | "

@@ -11,6 +11,7 @@ from collections.abc import Iterator
 
 import numpy as np
 import pytest
+from clitool import cli
 
 import kinect_pipeline as kp
 from kinect_pipeline.cli.bench import bench_binary
@@ -93,6 +94,42 @@ def test_a_reference_path_the_pipeline_lacks_is_refused(name: str) -> None:
     assert r.returncode == 2
     assert f"'{name}'" in r.stderr and "binning" in r.stderr and "portable" in r.stderr, r.stderr
     assert not _targets_ran(r.stdout)
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--frames", "0"], "--frames: '0' is not a frame count"),
+        (["--frames", "3x"], "--frames: '3x' is not a frame count"),
+        (["--kernel", "4"], "Config.open_kernel_size = 4: expected"),
+        (["--kernel", "abc"], "--kernel: 'abc' is not an opening kernel size"),
+        (["--surface-band", "-1"], "Config.surface_band = -1: expected"),
+        (["--projection", "diagonal"], "--projection: 'diagonal' is not horizontal or column"),
+        (["--simd", ""], "--simd: names nothing to measure"),
+        (["--simd", ","], "--simd: names nothing to measure"),
+        (["--reference", ""], "--reference: names nothing to measure"),
+        (["--encodings", ""], "--encodings: names nothing to measure"),
+        (["--threads", ""], "--threads: names nothing to measure"),
+    ],
+)
+def test_the_bench_refuses_options_it_cannot_honour_naming_the_value(args: list[str], says: str) -> None:
+    """Before, a frame count of 0 or an empty list printed a table of nothing (or of NaN) with exit 0, and a kernel
+    the pipeline refuses ended in an uncaught exception."""
+    r = _bench(*args)  # the options given last win over _bench's own
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert says in r.stderr, r.stderr
+    assert not _targets_ran(r.stdout) and "terminate" not in r.stderr
+
+
+def test_the_bench_cli_passes_an_empty_list_through_to_be_refused() -> None:
+    r = cli("bench", "--frames", "2", "--encodings", "")
+    assert r.returncode == 2 and "--encodings: names nothing to measure" in r.stderr, r.stdout + r.stderr
+
+
+def test_the_bench_without_an_opening_says_so() -> None:
+    r = _bench("--kernel", "0")
+    assert r.returncode == 0, r.stderr
+    assert ", no opening," in r.stdout and len(_targets_ran(r.stdout)) == 1, r.stdout
 
 
 def test_python_restricts_the_dispatch_and_every_target_gives_the_same_frame() -> None:

@@ -55,9 +55,9 @@ def bench_binary() -> Path:
 def run(args: argparse.Namespace) -> int:
     cmd = [str(bench_binary()), "--frames", str(args.frames), "--kernel", str(args.kernel)]
     cmd += ["--projection", args.projection]
-    if args.threads:
+    if args.threads is not None:  # an empty list too: the benchmark refuses it, naming the option
         cmd += ["--threads", args.threads]
-    if args.encodings:
+    if args.encodings is not None:
         cmd += ["--encodings", args.encodings]
     if args.surface_band:
         cmd += ["--surface-band", str(args.surface_band)]
