@@ -273,3 +273,31 @@ def test_resume_refuses_another_input_or_other_options(long_bag: tuple, bag: Pat
         replay(path, tmp_path / "z.bag", max_frames=0)
     with pytest.raises(TypeError, match="max_frames"):
         replay(path, tmp_path / "z.bag", max_frames=2.5)  # type: ignore[arg-type]
+
+
+def test_resume_refuses_a_frame_limit_the_earlier_output_already_reaches(long_bag: tuple, tmp_path: Path) -> None:
+    """Before, --resume --max-frames 1 into a 3-frame output rewrote it with 1 frame, exit 0: computed frames lost."""
+    path, _ = long_bag
+    out = tmp_path / "out.bag"
+    replay(path, out, FILTER, show_progress=False, max_frames=3)
+    before = sha(out)
+    for limit in (1, 3):
+        with pytest.raises(ReplayError, match=rf"--max-frames {limit}: .*out.bag holds 3 frames already.*above 3"):
+            replay(path, out, FILTER, show_progress=False, resume=True, max_frames=limit)
+        assert sha(out) == before
+    more = replay(path, out, FILTER, show_progress=False, resume=True, max_frames=5)
+    assert more.reused == 3 and more.processed == 2 and len(messages(out)["/kinect2/scan"]) == 5
+
+
+def test_a_refused_resume_keeps_the_partial_file_it_could_not_take(long_bag: tuple, tmp_path: Path) -> None:
+    """An interrupted replay's partial file made with other options: the refused --resume names it and leaves it
+    (before, the refusal's clean-up deleted it)."""
+    path, _ = long_bag
+    out = tmp_path / "out.bag"
+    replay(path, out, FILTER, show_progress=False, max_frames=3)
+    partial = tmp_path / ".out.bag.partial"
+    out.rename(partial)
+    before = sha(partial)
+    with pytest.raises(ReplayError, match=r"\.out\.bag\.partial is not a replay of this input with these options"):
+        replay(path, out, ReplayOptions(), show_progress=False, resume=True)
+    assert partial.exists() and sha(partial) == before and not out.exists()

@@ -121,9 +121,11 @@ def test_the_bench_refuses_options_it_cannot_honour_naming_the_value(args: list[
     assert not _targets_ran(r.stdout) and "terminate" not in r.stderr
 
 
-def test_the_bench_cli_passes_an_empty_list_through_to_be_refused() -> None:
+def test_the_bench_cli_refuses_an_empty_list_and_passes_one_naming_nothing_through() -> None:
     r = cli("bench", "--frames", "2", "--encodings", "")
-    assert r.returncode == 2 and "--encodings: names nothing to measure" in r.stderr, r.stdout + r.stderr
+    assert r.returncode == 2 and "argument --encodings: an empty value" in r.stderr, r.stdout + r.stderr
+    r = cli("bench", "--frames", "2", "--threads", ",")
+    assert r.returncode == 2 and "--threads: names nothing to measure" in r.stderr, r.stdout + r.stderr
 
 
 def test_the_bench_without_an_opening_says_so() -> None:

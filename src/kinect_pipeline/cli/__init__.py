@@ -25,7 +25,7 @@ from . import (
     soak,
     synth,
 )
-from ._common import COMMAND, Formatter, ToolError, join_intrinsics, parse_params
+from ._common import COMMAND, Formatter, ToolError, join_intrinsics, parse_params, refuse_empty
 
 COMMANDS: tuple[ModuleType, ...] = (
     demo,
@@ -53,13 +53,21 @@ __all__ = ["COMMANDS", "ToolError", "build_parser", "main", "parse_params"]
 
 
 def build_parser() -> argparse.ArgumentParser:
+    return _parsers()[0]
+
+
+def _parsers() -> tuple[argparse.ArgumentParser, dict[str, argparse.ArgumentParser]]:
+    """The command line's parser, and each command's own by name."""
     p = argparse.ArgumentParser(prog=COMMAND, description=DESCRIPTION, formatter_class=Formatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    commands = {}
     for mod in COMMANDS:
-        c = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP, formatter_class=Formatter)
+        c = commands[mod.NAME] = sub.add_parser(
+            mod.NAME, help=mod.HELP, description=mod.HELP, formatter_class=Formatter
+        )
         mod.add_arguments(c)
         c.set_defaults(func=mod.run)
-    return p
+    return p, commands
 
 
 def _message(exc: BaseException) -> str:
@@ -69,7 +77,9 @@ def _message(exc: BaseException) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(join_intrinsics(sys.argv[1:] if argv is None else list(argv)))
+    parser, commands = _parsers()
+    args = parser.parse_args(join_intrinsics(sys.argv[1:] if argv is None else list(argv)))
+    refuse_empty(commands[args.command], args)
     try:
         return int(args.func(args))
     except (ToolError, ValueError, OSError) as exc:

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,53 @@ class Formatter(argparse.RawDescriptionHelpFormatter):
         if "default" in text or d is None or d is False or d == argparse.SUPPRESS or action.required:
             return text
         return text + " (default: %(default)s)"
+
+
+# -- typed options: the parser refuses a bad value, naming the option, the value and what was expected -------------
+
+
+def count(lo: int = 1, hi: int = 1_000_000) -> Callable[[str], int]:
+    """An option's type: a whole number in lo..hi (frames, seeds, workers, threads)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"'{text}': expected a whole number {lo}..{hi}")
+        return value
+
+    parse.__name__ = "count"
+    return parse
+
+
+def number(lo: float = -math.inf, hi: float = math.inf, *, above: float | None = None) -> Callable[[str], float]:
+    """An option's type: a finite number in [lo, hi], or (``above``) greater than that."""
+    bounds = [f"> {above:g}" if above is not None else f">= {lo:g}" if math.isfinite(lo) else "", f"<= {hi:g}"]
+    span = " and ".join(b for b in bounds if b and "inf" not in b)
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and lo <= value <= hi and (above is None or value > above)):
+            raise argparse.ArgumentTypeError(f"'{text}': expected a finite number {span}".rstrip())
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """An option or argument given as an empty string names nothing (a file, a topic, a list): refused with the
+    parser's error (exit 2), before anything runs. Before, some were ignored and some meant the current folder."""
+    for action in parser._actions:  # argparse has no public list of a parser's actions
+        value = getattr(args, action.dest, None)
+        if value == "" or (isinstance(value, list) and "" in value):
+            name = "/".join(action.option_strings) or action.metavar or action.dest
+            parser.error(f"argument {name}: an empty value: expected {action.metavar or action.dest.upper()}")
 
 
 def add_quiet(p: argparse.ArgumentParser) -> None:
@@ -193,7 +241,7 @@ def add_frames(p: argparse.ArgumentParser, what: str, sensor_use: str, positiona
         )
     p.add_argument(
         "--depth-scale",
-        type=float,
+        type=number(above=0.0),
         default=0.001,
         help="metres per unit of 16-bit frames [m] (TUM and slambook2 ch7: 0.0002)",
     )

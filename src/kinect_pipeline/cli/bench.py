@@ -6,14 +6,14 @@ import argparse
 import subprocess
 from pathlib import Path
 
-from ._common import ToolError
+from ._common import ToolError, count
 
 NAME = "bench"
 HELP = "time per stage and per frame vs memcpy, 1 and 2 threads (C++ benchmark)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frames", type=int, default=300, help="frames per measurement [frames]")
+    p.add_argument("--frames", type=count(), default=300, help="frames per measurement [frames]")
     p.add_argument("--kernel", type=int, default=3, help="opening kernel size [px]")
     p.add_argument("--projection", choices=["horizontal", "column"], default="horizontal", help="scan projection")
     p.add_argument("--threads", help="comma-separated thread counts, e.g. 1,2,4,8 [threads] (default: 1,2)")

@@ -4,23 +4,25 @@ from __future__ import annotations
 
 import argparse
 
+from ._common import count, number
+
 NAME = "bench-ros"
 HELP = "image->scan latency and CPU: node, nodelet, bare image_transport relay (own roscore)"
 
 
 def add_rate_and_threads(p: argparse.ArgumentParser) -> None:
     """--rate and --threads of the runs through a roscore (bench-ros, soak)."""
-    p.add_argument("--rate", type=float, default=30.0, help="frames per second [Hz]")
+    p.add_argument("--rate", type=number(hi=1000.0, above=0.0), default=30.0, help="frames per second [Hz]")
     p.add_argument(
         "--threads",
-        type=int,
+        type=count(0, 1024),
         default=1,
         help="the pipeline's num_threads [threads] (default: 1, as the node's; 0: OpenMP's default)",
     )
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frames", type=int, default=300, help="frames per subject [frames]")
+    p.add_argument("--frames", type=count(), default=300, help="frames per subject [frames]")
     add_rate_and_threads(p)
     p.add_argument(
         "--sequential",

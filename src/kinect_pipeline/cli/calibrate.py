@@ -8,7 +8,7 @@ import math
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_frames, check, frame_files, frames_camera, intrinsics_of, named, warn
+from ._common import ToolError, add_frames, check, frame_files, frames_camera, intrinsics_of, named, number, warn
 from .replay import add_bag_topics
 
 NAME = "calibrate"
@@ -29,10 +29,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="write a PNG: with frames, the first one's labels under the calibrated pose; with --bag, tf vs floor per "
         "frame (default: none)",
     )
-    p.add_argument("--max-depth", type=float, default=12.0, help="depth of 8-bit value 255 [m]")
+    p.add_argument("--max-depth", type=number(above=0.0), default=12.0, help="depth of 8-bit value 255 [m]")
     p.add_argument(
         "--max-tilt",
-        type=float,
+        type=number(hi=90.0, above=0.0),
         default=40.0,
         help="largest tilt of the floor from the image's up considered [deg] (where that finds no plausible floor, "
         "the frame is searched a quarter turn either way too: any mounting roll, |pitch| up to this): a wall seen by "

@@ -6,14 +6,14 @@ import argparse
 from pathlib import Path
 
 from ..outputs import output_folder
-from ._common import add_quiet
+from ._common import add_quiet, count
 
 NAME = "cliff"
 HELP = "negative obstacles (stair down, hole, flat floor) per pitch condition"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--frames", type=int, default=20, help="frames per pitch condition [frames]")
+    p.add_argument("--frames", type=count(), default=20, help="frames per pitch condition [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")
     p.add_argument("--pictures", metavar="DIR", help="also write the stair and hole pictures into DIR (default: none)")
     add_quiet(p)

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ._common import ToolError, add_frames, check, frame_files, frames_camera, named
+from ._common import ToolError, add_frames, check, count, frame_files, frames_camera, named, number
 
 if TYPE_CHECKING:
     from ..tools.curve import CurveFit
@@ -21,16 +21,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--rate",
-        type=float,
+        type=number(hi=0.5, above=0.0),
         default=1e-4,
         help="false-obstacle rate per floor pixel [-] (default: 1e-4: a beam sees ~100 floor pixels, so this keeps "
         "phantom beams under the 0.2 %% goal)",
     )
-    p.add_argument("--margin", type=float, default=0.01, help="added to k sigma [m]")
+    p.add_argument("--margin", type=number(lo=0.0), default=0.01, help="added to k sigma [m]")
     p.add_argument(
         "--from-model",
         nargs=2,
-        type=float,
+        type=number(above=0.0),
         metavar=("SIGMA0", "K"),
         help="no data: sigma(d) = SIGMA0 + K (d - 0.4)^2 [m, m/m^2] (Kinect v2: 0.0015 0.0019) (default: none)",
     )
@@ -43,7 +43,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="score it on generated noisy frames against the constant margins with the same false-obstacle and "
         "phantom-beam rates (fits on generated floor frames when no frames are given) (default: off)",
     )
-    p.add_argument("--compare-frames", type=int, default=12, help="generated frames for --compare [frames]")
+    p.add_argument(
+        "--compare-frames", type=count(hi=10_000), default=12, help="generated frames for --compare [frames]"
+    )
     p.add_argument(
         "--compare-plot", help="with --compare: write a PNG of the curves and what they remove (default: none)"
     )

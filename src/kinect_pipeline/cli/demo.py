@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from ..outputs import output_folder
+from ._common import count
 
 NAME = "demo"
 HELP = "synthetic Segway sequence through the pipeline -> PNGs, quality.json, a replayed bag and its report"
@@ -14,9 +15,9 @@ HELP = "synthetic Segway sequence through the pipeline -> PNGs, quality.json, a 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="out/demo", help="output folder, made if missing")
-    p.add_argument("--frames", type=int, default=40, help="frames to render [frames]")
+    p.add_argument("--frames", type=count(hi=100_000), default=40, help="frames to render [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="8UC1", help="depth encoding")
-    p.add_argument("--seed", type=int, default=1, help="seed of the noise [-]")
+    p.add_argument("--seed", type=count(0, 2**64 - 1), default=1, help="seed of the noise [-]")
 
 
 def run(args: argparse.Namespace) -> int:

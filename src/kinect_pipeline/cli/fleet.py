@@ -16,6 +16,8 @@ from ._common import (
     add_quiet,
     add_sensor_model,
     check,
+    count,
+    number,
     parse_params,
     with_sensor_model,
 )
@@ -44,7 +46,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--workers",
-        type=int,
+        type=count(1, 1024),
         help="LocalCluster: worker processes [processes] (default: one per core); with --scheduler: wait until "
         "that many workers are connected",
     )
@@ -64,8 +66,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--lidar-topic", help="LaserScan for the phantom proxy (default: the bag's LaserScan that is not ground truth)"
     )
     add_intrinsics(p, ", for folders of frames (default: --sensor-model's typical ones)")
-    p.add_argument("--depth-scale", type=float, default=0.001, help="metres per unit of 16-bit frames [m]")
-    p.add_argument("--frame-rate", type=float, default=30.0, help="of folders of frames: their stamps [Hz]")
+    p.add_argument("--depth-scale", type=number(above=0.0), default=0.001, help="metres per unit of 16-bit frames [m]")
+    p.add_argument(
+        "--frame-rate",
+        type=number(hi=10_000.0, above=0.0),
+        default=30.0,
+        help="of folders of frames: their stamps [Hz]",
+    )
     add_sensor_model(p, "its threshold curve, range and cliff pixels (and intrinsics of frames)")
     add_param(p, "a core Config field of every configuration")
     p.add_argument(
@@ -88,7 +95,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--threads",
-        type=int,
+        type=count(0, 1024),
         default=1,
         help="core threads per task [threads] (0: OpenMP's default; one task per worker)",
     )
@@ -99,9 +106,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="the benchmark instead: synthetic recordings with 1 and 2 workers, against plain replay (default: off)",
     )
-    p.add_argument("--bench-recordings", type=int, default=4, help="--bench: recordings [recordings]")
-    p.add_argument("--bench-frames", type=int, default=150, help="--bench: frames per recording [frames]")
-    p.add_argument("--bench-repeat", type=int, default=2, help="--bench: rounds, the best of each shown [rounds]")
+    p.add_argument("--bench-recordings", type=count(hi=10_000), default=4, help="--bench: recordings [recordings]")
+    p.add_argument("--bench-frames", type=count(), default=150, help="--bench: frames per recording [frames]")
+    p.add_argument(
+        "--bench-repeat", type=count(hi=100), default=2, help="--bench: rounds, the best of each shown [rounds]"
+    )
     add_quiet(p)
 
 

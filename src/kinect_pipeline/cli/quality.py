@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_intrinsics, add_param, add_quiet
+from ._common import ToolError, add_intrinsics, add_param, add_quiet, count
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
@@ -21,7 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_bag_topics(p)
     add_intrinsics(p, BAG_INTRINSICS)
     add_param(p)
-    p.add_argument("--frames", type=int, default=20, help="frames per pitch condition [frames]")
+    p.add_argument("--frames", type=count(), default=20, help="frames per pitch condition [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")
     p.add_argument(
         "--real-frames",

@@ -14,8 +14,10 @@ from ._common import (
     add_quiet,
     add_sensor_model,
     check,
+    count,
     intrinsics_of,
     named,
+    number,
     parse_params,
     warn,
     with_sensor_model,
@@ -38,7 +40,7 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)")
     p.add_argument("--base-frame", default="base_footprint", help="gravity-aligned tf frame on the floor")
-    p.add_argument("--base-frame-height", type=float, default=0.0, help="its origin's height above the floor [m]")
+    p.add_argument("--base-frame-height", type=number(), default=0.0, help="its origin's height above the floor [m]")
 
 
 def add_pose_fallback(p: argparse.ArgumentParser) -> None:
@@ -93,7 +95,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--max-frames",
-        type=int,
+        type=count(),
         help="stop after this many depth frames: a complete, shorter bag [frames] (default: all)",
     )
     add_intrinsics(p, BAG_INTRINSICS)

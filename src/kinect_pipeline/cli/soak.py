@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ._common import number
 from .bench_ros import add_rate_and_threads
 
 NAME = "soak"
@@ -11,7 +12,7 @@ HELP = "long run through a real roscore: drops, latency, memory at start and end
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--minutes", type=float, default=10.0, help="how long [min]")
+    p.add_argument("--minutes", type=number(hi=100_000.0, above=0.0), default=10.0, help="how long [min]")
     add_rate_and_threads(p)
     p.add_argument("--subject", choices=["node", "nodelet"], default="nodelet", help="what runs the pipeline")
 

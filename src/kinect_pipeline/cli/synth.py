@@ -7,7 +7,7 @@ import json
 import math
 from pathlib import Path
 
-from ._common import add_quiet, check, named
+from ._common import add_quiet, check, count, named, number
 
 NAME = "synth"
 HELP = "write a bag of a synthetic Segway sequence (depth, camera_info, tf, LiDAR, ground truth)"
@@ -20,14 +20,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         choices=["ros1", "sqlite3", "mcap"],
         help="ROS 1, or rosbag2 with sqlite3 or mcap storage (default: what the name says; ROS 1 unless .mcap/.db3)",
     )
-    p.add_argument("--frames", type=int, default=30, help="depth frames [frames]")
+    p.add_argument("--frames", type=count(hi=100_000), default=30, help="depth frames [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")
-    p.add_argument("--seed", type=int, default=1, help="seed of the noise [-]")
+    p.add_argument("--seed", type=count(0, 2**64 - 1), default=1, help="seed of the noise [-]")
     add_quiet(p)
     for what, unit in (("height", "m"), ("pitch", "deg"), ("roll", "deg")):
         p.add_argument(
             f"--tf-error-{what}",
-            type=float,
+            type=number(),
             default=0.0,
             help=f"add this to the mounting {what} the bag's tf states (a wrong URDF) [{unit}]",
         )

@@ -251,6 +251,10 @@ class _Earlier:
         self.i += 1
         return self.bag.read(e)
 
+    def frames(self, depth_topic: str) -> int:
+        """The depth frames it holds."""
+        return sum(1 for e in self.entries if self.bag.topic_of(e) == depth_topic)
+
     def meta(self) -> dict[str, Any] | None:
         from ..bags.messages import typestore
 
@@ -372,6 +376,7 @@ class _Run:
         self.report = r = ReplayReport()
         self.earlier: _Earlier | None = None
         self.keep_partial = False
+        self.writing = False  # whether this run has begun writing self.tmp
         self.started = time.monotonic()
         for d in bag.damage:
             r.bad_messages += d.lost or 0
@@ -414,6 +419,13 @@ class _Run:
                 "--resume: nothing to resume: "
                 + ("; ".join(why) if why else f"neither {self.out} nor {self.tmp} exists (start without --resume)")
             )
+        held = self.earlier.frames(self.report.depth_topic)
+        if self.max_frames is not None and self.max_frames <= held:
+            raise ReplayError(
+                f"--resume with --max-frames {self.max_frames}: {self.earlier.bag.path} holds {held} frames already, "
+                f"so there is nothing to continue: expected --max-frames above {held}, or none (a shorter output: "
+                "replay into a new name)"
+            )
         if self.earlier.bag.path == self.tmp:  # read it while the continuation is written to tmp
             self.earlier.bag.close()
             os.replace(self.tmp, self.old)
@@ -432,6 +444,7 @@ class _Run:
         self.frames = _Frames(self.bag, tf, cameras, self.opts, r)
         try:
             single = self.out.suffix.lower() in (".mcap", ".db3")
+            self.writing = True  # from here on, self.tmp is this run's (close() removes it unless kept)
             with BagWriter(self.tmp, r.format, single_file=single, name=self.out.name) as w:
                 self._write(w, show_progress)
         except KeyboardInterrupt:
@@ -517,7 +530,7 @@ class _Run:
         self.bag.close()
         if self.earlier is not None:
             self.earlier.bag.close()
-        if self.tmp.exists() and not self.keep_partial:
+        if self.writing and self.tmp.exists() and not self.keep_partial:
             if self.tmp.is_dir():
                 import shutil
 
