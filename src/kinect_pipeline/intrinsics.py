@@ -46,8 +46,8 @@ class Intrinsics:
             if not math.isfinite(x):
                 raise IntrinsicsError(f"{source}: {name} = {x}: expected a finite number")
         size = (v[4], v[5]) if len(v) == 6 else (0.0, 0.0)
-        if size != (int(size[0]), int(size[1])) or min(size) < 0:
-            raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels")
+        if size != (int(size[0]), int(size[1])) or min(size) < (1 if len(v) == 6 else 0):
+            raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels, at least 1x1")
         return Intrinsics(v[0], v[1], v[2], v[3], int(size[0]), int(size[1]), source)
 
     def camera(self, width: int, height: int) -> Any:

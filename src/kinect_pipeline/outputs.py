@@ -68,7 +68,8 @@ def check_outputs(inputs: Iterable[PathLike], outputs: Iterable[PathLike], folde
     An output conflicts with an input when it is the same file or folder (also through symbolic or hard links) or
     when it lies inside an input folder (a rosbag2 bag, a folder of frames). ``outputs`` are the files the tool
     writes (name every file it writes into a folder), ``folders`` the folders it fills. Also refused: a file output
-    whose folder does not exist and is not one of ``folders``. Raises :class:`OutputError` naming both paths."""
+    whose folder does not exist and is not one of ``folders``, and two outputs that are the same file. Raises
+    :class:`OutputError` naming both paths."""
     ins = [_named(p) for p in inputs]
     files = [_named(p) for p in outputs]
     dirs = [_named(p) for p in folders]
@@ -84,6 +85,10 @@ def check_outputs(inputs: Iterable[PathLike], outputs: Iterable[PathLike], folde
                     f"output {out} lies inside the input folder {inp}: a tool never writes into its inputs; "
                     "choose an output outside it"
                 )
+    for i, out in enumerate(files):
+        for other in files[:i]:
+            if _same(out.path, other.path):
+                raise OutputError(f"outputs {other} and {out} are the same file: expected one name for each output")
     for out in files:
         parent = out.path.parent
         if not parent.is_dir() and not any(_inside(out.path, d.path) or _same(parent, d.path) for d in dirs):
@@ -133,9 +138,12 @@ def atomic_file(path: PathLike, keep_suffix: bool = True) -> Iterator[Path]:
     that choose the format by the suffix, as matplotlib and OpenCV do). The file gets the mode of any file the user
     writes (0644 under the usual umask), not the temporary's 0600. An error names ``path``, never the temporary."""
     path = Path(_named(path).path)
-    fd, name = tempfile.mkstemp(
-        prefix=f".{path.name}.", suffix=(path.suffix if keep_suffix else ".tmp"), dir=path.parent or Path(".")
-    )
+    try:
+        fd, name = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=(path.suffix if keep_suffix else ".tmp"), dir=path.parent or Path(".")
+        )
+    except OSError as exc:  # the folder cannot take a file (/proc, read-only): the temporary's name is not the user's
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from exc
     os.close(fd)
     tmp = Path(name)
     try:

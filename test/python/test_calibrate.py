@@ -193,3 +193,13 @@ def test_bag_check_text_and_bad_input(
 
     with pytest.raises(TypeError, match="bag"):
         check_tf(3)  # type: ignore[arg-type]
+
+
+def test_bag_check_with_a_base_frame_the_tf_lacks_names_the_frames_there(
+    tf_bags: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A mistyped --base-frame said "the bag has no tf ... nothing to check", exit 0: nothing was checked."""
+    assert main(["calibrate", "--bag", str(tf_bags["ok"]), "--base-frame", "base_footprnt", "--json"]) == 1
+    out = capsys.readouterr()
+    assert out.out == "" and "has a tf from the base frame 'base_footprnt'" in out.err, out.err
+    assert "'base_footprnt' are not connected" in out.err and "base_footprint, base_link" in out.err, out.err

@@ -96,7 +96,12 @@ def test_a_good_param_reaches_the_core(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("intr", "expect"),
-    [(["0", "365", "255", "211"], "fx"), (["365", "-3", "255", "211"], "fy"), (["365", "365", "nan", "211"], "cx")],
+    [
+        (["0", "365", "255", "211"], "fx"),
+        (["365", "-3", "255", "211"], "fy"),
+        (["365", "365", "nan", "211"], "cx"),
+        (["365", "365", "255", "211", "0", "0"], "size 0x0: expected whole pixels, at least 1x1"),
+    ],
 )
 def test_bad_intrinsics_name_the_option(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], intr: list[str], expect: str
@@ -177,3 +182,43 @@ def test_no_number_option_is_left_unchecked() -> None:
         if a.type in (int, float)
     ]
     assert loose == ["bench --kernel", "bench --surface-band"], loose
+
+
+def test_a_contradiction_or_an_option_without_its_work_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each ran with exit 0 and did less than asked: frames beside --from-model were not fitted, --compare-plot
+    without --compare was not drawn, a --real-frames folder without frames was left out of the table."""
+    f = tmp_path / "f.npy"
+    f.write_bytes(b"")
+    cases = [
+        (["curve", str(f), "--from-model", "0.0015", "0.0019"], "--from-model fits no frames: give it or frames"),
+        (["curve", "--from-model", "0.0015", "0.0019", "--compare-plot", "c.png"], "it needs --compare"),
+        (["quality", "--frames", "1", "--quiet", "--real-frames", str(tmp_path)], "no depth/*.png in it"),
+    ]
+    for args, says in cases:
+        assert main(args) == 1
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "c.png").exists()
+
+
+def test_an_empty_value_that_means_none_or_is_the_default_is_let_be() -> None:
+    """quality's --real-frames "" says: no real frames (its help); a default of "" is not the user's."""
+    from kinect_pipeline.cli import _parsers
+    from kinect_pipeline.cli._common import refuse_empty
+
+    _, commands = _parsers()
+    q = commands["quality"]
+    refuse_empty(q, q.parse_args(["--real-frames", ""]))
+    q.set_defaults(info_topic="")
+    refuse_empty(q, q.parse_args([]))
+    with pytest.raises(SystemExit):
+        refuse_empty(q, q.parse_args(["--bag", ""]))
+
+
+def test_a_measure_no_frame_could_take_is_a_dash_not_nan(capsys: pytest.CaptureFixture[str]) -> None:
+    """evaluate looking straight down: no obstacle and no ceiling in view; it printed nan (with numpy warnings)."""
+    assert main(["evaluate", "--frames", "1", "--encodings", "16UC1", "--pitch", "1.5707"]) == 0
+    out = capsys.readouterr()
+    assert "nan" not in out.out and "| – |" in out.out and "no pixel or beam of that kind" in out.out, out.out
+    assert "RuntimeWarning" not in out.err

@@ -204,6 +204,20 @@ def test_inputs_and_configurations_are_checked(recs: dict[str, Path], tmp_path: 
         load_config(bad, {})
     r = cli("fleet", str(recs["sqlite3"]), "-o", str(recs["sqlite3"] / "out"))
     assert r.returncode == 1 and "lies inside the input folder" in r.stderr
+    empty = tmp_path / "none.txt"
+    empty.write_text("# nothing yet\n\n")
+    with pytest.raises(FleetError, match=r"none\.txt: lists no recording: expected a path or glob a line"):
+        find_recordings([str(empty)])
+    binary = tmp_path / "binary.yaml"
+    binary.write_bytes(b"\xb3\x00\xff")
+    with pytest.raises(FleetError, match=r"binary\.yaml: cannot read a configuration: .*codec"):
+        load_config(binary, {})
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("sensor_height: [1.0\n")
+    with pytest.raises(FleetError, match=r"broken\.yaml: cannot read a configuration: [^\n]*$"):
+        load_config(broken, {})
+    r = cli("fleet", str(recs["ros1"]), "-o", str(tmp_path / "g"), "--scheduler", "garbage", "--quiet")
+    assert r.returncode == 1 and "--scheduler garbage: cannot reach a Dask scheduler there" in r.stderr, r.stderr
     r = cli("fleet", str(tmp_path / "missing.bag"), "-o", str(tmp_path / "o"), "--workers", "1", "--quiet")
     assert r.returncode == 1 and "missing.bag [default]: unreadable: " in r.stderr and "no such file" in r.stderr
 

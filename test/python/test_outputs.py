@@ -241,3 +241,22 @@ def test_python_m_and_the_script_are_the_same_cli() -> None:
     assert r.returncode == 0 and "usage: kinect-pipeline" in r.stdout
     assert "``" not in r.stdout and ":func:" not in r.stdout, "no raw RST markup in the top-level help"
     np.testing.assert_equal(r.stderr, "")
+
+
+def test_one_file_named_for_two_outputs_is_refused_before_any_work(frame: Path, tmp_path: Path) -> None:
+    """curve -o c.yaml --plot c.yaml wrote the PNG over the YAML and said "YAML: c.yaml", exit 0."""
+    out = tmp_path / "c.yaml"
+    r = cli("curve", str(frame), "--intrinsics", *INTR, "-o", str(out), "--plot", str(out))
+    assert r.returncode == 1 and f"outputs -o {out} and --plot {out} are the same file" in r.stderr, r.stderr
+    assert r.stdout == "" and not out.exists()
+    with pytest.raises(OutputError, match="are the same file"):
+        check_outputs([], [tmp_path / "a.png", tmp_path / "." / "a.png"])
+
+
+def test_a_folder_that_takes_no_file_is_named_as_the_user_named_the_output() -> None:
+    """A temporary could not be made in /proc: the error named it (/proc/.x.yaml.6wfrew93.yaml), not -o's path."""
+    with pytest.raises(OutputError, match=r"^cannot write /proc/x\.yaml: ") as e, atomic_file("/proc/x.yaml"):
+        pass
+    assert ".x.yaml." not in str(e.value)
+    r = cli("curve", "--from-model", "0.0015", "0.0019", "-o", "/proc/x.yaml")
+    assert r.returncode == 1 and r.stderr.strip().endswith("cannot write /proc/x.yaml: No such file or directory")

@@ -301,3 +301,12 @@ def test_a_refused_resume_keeps_the_partial_file_it_could_not_take(long_bag: tup
     with pytest.raises(ReplayError, match=r"\.out\.bag\.partial is not a replay of this input with these options"):
         replay(path, out, ReplayOptions(), show_progress=False, resume=True)
     assert partial.exists() and sha(partial) == before and not out.exists()
+
+
+def test_resume_into_a_complete_output_is_refused_as_nothing_to_do(bag: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out.bag"
+    replay(bag, out, show_progress=False)
+    before = sha(out)
+    with pytest.raises(ReplayError, match=rf"out\.bag holds all {FRAMES} frames of the input already: nothing"):
+        replay(bag, out, show_progress=False, resume=True)
+    assert sha(out) == before

@@ -73,11 +73,18 @@ def number(lo: float = -math.inf, hi: float = math.inf, *, above: float | None =
     return parse
 
 
+def empty_means_none(action: argparse.Action) -> None:
+    """Marks an option whose empty value says "none" (its help says so): refuse_empty lets it be."""
+    action.empty_means_none = True  # type: ignore[attr-defined]
+
+
 def refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """An option or argument given as an empty string names nothing (a file, a topic, a list): refused with the
     parser's error (exit 2), before anything runs. Before, some were ignored and some meant the current folder."""
     for action in parser._actions:  # argparse has no public list of a parser's actions
         value = getattr(args, action.dest, None)
+        if getattr(action, "empty_means_none", False) or value == action.default:
+            continue
         if value == "" or (isinstance(value, list) and "" in value):
             name = "/".join(action.option_strings) or action.metavar or action.dest
             parser.error(f"argument {name}: an empty value: expected {action.metavar or action.dest.upper()}")

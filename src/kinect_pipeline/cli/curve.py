@@ -76,6 +76,10 @@ def run(args: argparse.Namespace) -> int:
     from ..tools.calibrate import CalibrationError
     from ..tools.curve import describe, plot, set_live, write_yaml
 
+    if args.from_model and args.files:
+        raise ToolError(f"--from-model fits no frames: give it or frames, not both (got {' '.join(args.files)})")
+    if args.compare_plot and not args.compare:
+        raise ToolError("--compare-plot plots the comparison: it needs --compare")
     outputs = [named("-o", args.output), named("--plot", args.plot), named("--compare-plot", args.compare_plot)]
     check([*map(Path, args.files), *frame_files(args.files)], outputs)
     try:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_intrinsics, add_param, add_quiet, count
+from ._common import ToolError, add_intrinsics, add_param, add_quiet, count, empty_means_none
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
@@ -23,12 +23,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_param(p)
     p.add_argument("--frames", type=count(), default=20, help="frames per pitch condition [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")
-    p.add_argument(
+    real = p.add_argument(
         "--real-frames",
         default=_default_real_frames(),
         help="folder of real RealSense frames (depth/*.png, 16-bit mm, the shared realsense_lowcam camera) for the "
         "real-floors table; empty: none",
     )
+    empty_means_none(real)
     add_quiet(p)
 
 
@@ -45,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.bag:
         return _run_bag(args)
+    _check_real_frames(args.real_frames)
     rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
     print(
         f"lab scene, Kinect v2 at 1.1 m tilted 15 deg, {args.frames} frames per condition, {args.encoding}, "
@@ -68,6 +70,14 @@ def run(args: argparse.Namespace) -> int:
     )
     print(real_floors_table(frames=args.frames, show_progress=not args.quiet, real_folder=args.real_frames))
     return 0
+
+
+def _check_real_frames(folder: str) -> None:
+    """A folder named for the real-floors table must hold frames (before, one without was left out silently)."""
+    from pathlib import Path
+
+    if folder and not sorted(Path(folder).glob("depth/*.png")):
+        raise ToolError(f"--real-frames {folder}: no depth/*.png in it: expected the realsense_lowcam folder, or ''")
 
 
 def _run_bag(args: argparse.Namespace) -> int:

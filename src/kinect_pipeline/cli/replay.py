@@ -40,7 +40,9 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--info-topic", help="CameraInfo topic (default: camera_info beside the depth topic)")
     p.add_argument("--base-frame", default="base_footprint", help="gravity-aligned tf frame on the floor")
-    p.add_argument("--base-frame-height", type=number(), default=0.0, help="its origin's height above the floor [m]")
+    p.add_argument(
+        "--base-frame-height", type=number(-10.0, 10.0), default=0.0, help="its origin's height above the floor [m]"
+    )
 
 
 def add_pose_fallback(p: argparse.ArgumentParser) -> None:

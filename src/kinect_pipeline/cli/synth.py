@@ -27,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     for what, unit in (("height", "m"), ("pitch", "deg"), ("roll", "deg")):
         p.add_argument(
             f"--tf-error-{what}",
-            type=number(),
+            type=number(-10.0, 10.0) if unit == "m" else number(-90.0, 90.0),
             default=0.0,
             help=f"add this to the mounting {what} the bag's tf states (a wrong URDF) [{unit}]",
         )
@@ -36,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..simulation.sequence_bag import Scenario, write_sequence_bag
 
-    check([], [named("output", args.output)])
+    check([], [named("", args.output)])  # a positional: the message says "output PATH" itself
     tf_error = (args.tf_error_height, math.radians(args.tf_error_pitch), math.radians(args.tf_error_roll))
     scenario = Scenario(frames=args.frames, encoding=args.encoding, seed=args.seed, tf_error=tf_error)
     summary = write_sequence_bag(Path(args.output), scenario, fmt=args.format, show_progress=not args.quiet)

@@ -331,12 +331,17 @@ def default_config_table(frames: int, height: float, pitch: float, encodings: li
             f = render_frame(cam, lab_scene(), height, pitch + bp, br, enc, seed=100 + i)
             q = frame_quality(pipe.process(f.depth, bp, br), f)
             rows.append([q.floor_removed, q.obstacles_kept, q.above_ceiling_removed, q.phantom_beams])
-        a = np.array(rows)
-        lines.append(
-            f"| {enc} | {len(rows)} | {np.nanmin(a[:, 0]):.4f} | {np.nanmin(a[:, 1]):.4f} "
-            f"| {np.nanmin(a[:, 2]):.4f} | {np.nanmax(a[:, 3]):.4f} |"
-        )
+        a = np.array(rows, float)
+        cells = [_worst(a[:, i], worst) for i, worst in enumerate((np.nanmin, np.nanmin, np.nanmin, np.nanmax))]
+        lines.append(f"| {enc} | {len(rows)} | {' | '.join(cells)} |")
+    if any("| – |" in line for line in lines):
+        lines.append("(–: no pixel or beam of that kind in any frame at this pose)")
     return "\n".join(lines)
+
+
+def _worst(column: np.ndarray, worst: Any) -> str:
+    """The worst of a measure over the frames, or – where no frame had anything to measure (NaN in every one)."""
+    return "–" if np.isnan(column).all() else f"{worst(column):.4f}"
 
 
 def bag_quality(bag: Any, opts: Any = None, show_progress: bool = False) -> dict[str, Any]:

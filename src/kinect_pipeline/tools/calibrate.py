@@ -442,6 +442,13 @@ def check_tf(
         reader.close()
     if not frames:
         raise CalibrationError(f"{bag}: no frame of {depth_topic} could be used: {'; '.join(problems[:3])}")
+    if tf.parent and not any("tf_height" in f for f in frames):  # a tf the frames cannot use: nothing was checked
+        first = next(f["message"] for f in frames if "message" in f)
+        known = ", ".join(sorted(set(tf.parent) | set(tf.parent.values())))
+        raise CalibrationError(
+            f"{bag}: no frame of {depth_topic} has a tf from the base frame '{base_frame}' ({first}): expected a "
+            f"frame of the bag's tf tree ({known}), connected to the camera's"
+        )
     warnings = [cameras.warning] if cameras.warning else []
     warnings += weak_fits([f for f in fits if f["found"]]) + refusals([f for f in fits if f.get("message")], len(fits))
     return TfCheck(str(bag), depth_topic, frames, cameras.source, warnings)

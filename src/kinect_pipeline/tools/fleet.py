@@ -120,6 +120,8 @@ def _listed(path: Path) -> list[Path]:
         line = line.split("#", 1)[0].strip()
         if line:
             found += find_recordings([str(path.parent / line) if not Path(line).is_absolute() else line])
+    if not found:
+        raise FleetError(f"{path}: lists no recording: expected a path or glob a line ('#' starts a comment)")
     return found
 
 
@@ -171,8 +173,8 @@ def load_config(path: Path, base: dict[str, Any]) -> dict[str, Any]:
 
     try:
         data = yaml.safe_load(path.read_text()) or {}
-    except (OSError, yaml.YAMLError) as exc:
-        raise FleetError(f"{path}: cannot read a configuration: {exc}") from exc
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:  # one line, though YAML's message has several
+        raise FleetError(f"{path}: cannot read a configuration: {' '.join(str(exc).split())}") from exc
     if not isinstance(data, dict):
         raise FleetError(f"{path}: expected a mapping of Config fields (name: value), got {type(data).__name__}")
     return check_config({**base, **data}, str(path))
@@ -729,7 +731,7 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     if scheduler:
         try:
             client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:  # ValueError: not an address at all
             raise FleetError(f"--scheduler {scheduler}: cannot reach a Dask scheduler there: {exc}") from exc
         if workers:
             try:

@@ -420,6 +420,11 @@ class _Run:
                 + ("; ".join(why) if why else f"neither {self.out} nor {self.tmp} exists (start without --resume)")
             )
         held = self.earlier.frames(self.report.depth_topic)
+        total = self.bag.count(self.report.depth_topic)
+        if self.max_frames is None and self.earlier.bag.path == self.out and held >= total:
+            raise ReplayError(
+                f"--resume: {self.out} holds all {total} frames of the input already: nothing to continue"
+            )
         if self.max_frames is not None and self.max_frames <= held:
             raise ReplayError(
                 f"--resume with --max-frames {self.max_frames}: {self.earlier.bag.path} holds {held} frames already, "
