@@ -195,6 +195,7 @@ def test_a_contradiction_or_an_option_without_its_work_is_refused(
         (["curve", str(f), "--from-model", "0.0015", "0.0019"], "--from-model fits no frames: give it or frames"),
         (["curve", "--from-model", "0.0015", "0.0019", "--compare-plot", "c.png"], "it needs --compare"),
         (["quality", "--frames", "1", "--quiet", "--real-frames", str(tmp_path)], "no depth/*.png in it"),
+        (["quality", "--frames", "1", "--quiet", "--param", "range_max=3"], "--param: for --bag only"),
     ]
     for args, says in cases:
         assert main(args) == 1

@@ -165,3 +165,15 @@ def test_a_non_bag_and_an_empty_file_name_what_they_are(tmp_path: Path) -> None:
     text = _write(tmp_path, "text", b"just some text\n" * 10)
     r = cli("replay", str(text), "-o", str(tmp_path / "o.bag"), "--quiet")
     assert r.returncode == 1 and "b'just some tex'" in r.stderr and "#ROSBAG V2.0" in r.stderr
+
+
+@pytest.mark.parametrize(("name", "what"), [("x.mcap", "not an MCAP file"), ("x.db3", "not a rosbag2 sqlite3 file")])
+def test_a_non_bag_named_as_rosbag2_is_told_against_the_format_its_name_says(
+    tmp_path: Path, name: str, what: str
+) -> None:
+    """A text file named .mcap or .db3 was told against the ROS 1 header ('expected #ROSBAG V2.0')."""
+    text = tmp_path / name
+    text.write_bytes(b"just some text\n")
+    r = cli("replay", str(text), "-o", str(tmp_path / ("o" + text.suffix)), "--quiet")
+    assert r.returncode == 1 and f"{text}: {what}: it starts with b'just some text" in r.stderr, r.stderr
+    assert "ROSBAG" not in r.stderr

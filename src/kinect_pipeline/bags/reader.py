@@ -51,6 +51,10 @@ def bag_format(path: Path) -> str:
         return MCAP
     if head.startswith(b"SQLite format 3"):
         return SQLITE3
+    named = {".mcap": ("an MCAP file", b"\x89MCAP0\r\n"), ".db3": ("a rosbag2 sqlite3 file", b"SQLite format 3")}
+    if path.suffix.lower() in named and not head.startswith(b"#ROSBAG"):
+        what, magic = named[path.suffix.lower()]
+        raise BagError(f"{path}: not {what}: it starts with {head!r}, expected {magic!r} (byte 0)")
     return ROS1  # the ROS 1 reader names what is wrong with anything else
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_intrinsics, add_param, add_quiet, count, empty_means_none
+from ._common import ToolError, add_intrinsics, add_param, add_quiet, add_sensor_model, count, empty_means_none
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
@@ -20,7 +20,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_bag_topics(p)
     add_intrinsics(p, BAG_INTRINSICS)
-    add_param(p)
+    add_sensor_model(p, "--bag: its threshold curve, range and cliff pixels (and nominal intrinsics)")
+    add_param(p, "--bag: a core Config field of the replay")
     p.add_argument("--frames", type=count(), default=20, help="frames per pitch condition [frames]")
     p.add_argument("--encoding", choices=["8UC1", "16UC1", "32FC1"], default="16UC1", help="depth encoding")
     real = p.add_argument(
@@ -31,6 +32,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     empty_means_none(real)
     add_quiet(p)
+
+
+BAG_ONLY = {
+    "--param": "param",
+    "--intrinsics": "intrinsics",
+    "--sensor-model": "sensor_model",
+    "--depth-topic": "depth_topic",
+    "--info-topic": "info_topic",
+}
 
 
 def _default_real_frames() -> str:
@@ -46,6 +56,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.bag:
         return _run_bag(args)
+    given = [o for o, v in BAG_ONLY.items() if getattr(args, v) is not None]
+    if given:  # the rendered tables compare fixed configurations: these would be ignored
+        raise ToolError(f"{', '.join(given)}: for --bag only (the rendered tables use fixed configurations)")
     _check_real_frames(args.real_frames)
     rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
     print(
