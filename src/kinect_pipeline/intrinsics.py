@@ -46,8 +46,8 @@ class Intrinsics:
             if not math.isfinite(x):
                 raise IntrinsicsError(f"{source}: {name} = {x}: expected a finite number")
         size = (v[4], v[5]) if len(v) == 6 else (0.0, 0.0)
-        if size != (int(size[0]), int(size[1])) or min(size) < (1 if len(v) == 6 else 0):
-            raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels, at least 1x1")
+        if size != (int(size[0]), int(size[1])) or min(size) < 0:
+            raise IntrinsicsError(f"{source}: size {size[0]:g}x{size[1]:g}: expected whole pixels")
         return Intrinsics(v[0], v[1], v[2], v[3], int(size[0]), int(size[1]), source)
 
     def camera(self, width: int, height: int) -> Any:
@@ -74,7 +74,10 @@ def parse_intrinsics(values: list[str]) -> Intrinsics:
         raise IntrinsicsError(
             f"--intrinsics {' '.join(values)}: expected numbers, or one camera_info YAML file ({HOW})"
         )
-    return Intrinsics.from_list([float(x) for x in text], f"--intrinsics {' '.join(values)}")
+    where = f"--intrinsics {' '.join(values)}"
+    if len(text) == 6 and min(float(text[4]), float(text[5])) < 1:  # 0 x 0 stands for "any size" only inside
+        raise IntrinsicsError(f"{where}: size {text[4]}x{text[5]}: expected whole pixels, at least 1x1")
+    return Intrinsics.from_list([float(x) for x in text], where)
 
 
 def _numbers(items: list[str]) -> bool:

@@ -223,3 +223,17 @@ def test_a_measure_no_frame_could_take_is_a_dash_not_nan(capsys: pytest.CaptureF
     out = capsys.readouterr()
     assert "nan" not in out.out and "| – |" in out.out and "no pixel or beam of that kind" in out.out, out.out
     assert "RuntimeWarning" not in out.err
+
+
+def test_a_report_of_frames_without_one_depth_pixel_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Frames of nothing but no return (a wrong encoding, an empty recording) gave a report of nothing, exit 0."""
+    import numpy as np
+
+    f = tmp_path / "black.npy"
+    np.save(f, np.zeros((120, 160), np.float32))
+    pose = ["--param", "sensor_height=0.5", "--param", "sensor_pitch=0.4"]
+    assert main(["report", str(f), "-o", str(tmp_path / "rep"), "--quiet", "--intrinsics", "100,100,80,60", *pose]) == 1
+    assert "no pixel of the 1 frame(s) holds a depth (all are no return)" in capsys.readouterr().err
+    assert not (tmp_path / "rep").exists()

@@ -220,6 +220,11 @@ def collect_frames(
     for name, metres in frames:
         if metres.shape != (camera.height, camera.width):
             raise CalibrationError(f"{name}: {metres.shape[1]}x{metres.shape[0]}, but the camera is {camera!r}")
+    if not any((np.isfinite(m) & (m > 0)).any() for _, m in frames):  # the pictures would show nothing at all
+        raise CalibrationError(
+            f"no pixel of the {len(frames)} frame(s) holds a depth (all are no return): expected depth frames "
+            f"(16-bit at --depth-scale {depth_scale:g} m a unit, 8-bit up to {max_depth:g} m, float metres)"
+        )
     if any(k in config for k in POSE_FIELDS):
         cfg = _core.Config(**config)
         poses: list[tuple[float, float, float] | None] = [(cfg.sensor_height, cfg.sensor_pitch, cfg.sensor_roll)] * len(
