@@ -95,7 +95,8 @@ def read_camera_info_yaml(path: Path) -> Intrinsics:
 
     where = f"--intrinsics {path}"
     if not path.is_file():
-        raise IntrinsicsError(f"{where}: no such file (expected numbers or a camera_info YAML; {HOW})")
+        what = "a folder" if path.is_dir() else "no such file"
+        raise IntrinsicsError(f"{where}: {what} (expected numbers or a camera_info YAML file; {HOW})")
     try:
         doc = yaml.safe_load(path.read_text(errors="replace"))
     except yaml.YAMLError as exc:

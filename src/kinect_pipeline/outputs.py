@@ -95,6 +95,19 @@ def check_outputs(inputs: Iterable[PathLike], outputs: Iterable[PathLike], folde
             raise OutputError(f"output {out}: its folder {parent} does not exist")
 
 
+def check_rewrite(folder: PathLike, names: Iterable[str], markers: tuple[str, ...], what: str) -> None:
+    """A folder that holds files of the names a tool writes into it may be written again only where it is the
+    tool's own earlier output, which holds one of ``markers``: a user's files of those names are never written
+    over. Raises :class:`OutputError` naming the files."""
+    path = Path(_named(folder).path)
+    there = [n for n in names if (path / n).exists()]
+    if there and not any((path / m).exists() for m in markers):
+        raise OutputError(
+            f"{path} holds {', '.join(there)} but no {' or '.join(markers)}: not {what} of an earlier run, so not "
+            "written over: expected a new folder, or one of an earlier run"
+        )
+
+
 def _translate(exc: BaseException, tmp: Path, path: Path) -> OutputError:
     """The error of writing ``tmp``, told as the user's ``path``."""
     if isinstance(exc, OSError) and exc.strerror:

@@ -260,3 +260,28 @@ def test_a_folder_that_takes_no_file_is_named_as_the_user_named_the_output() -> 
     assert ".x.yaml." not in str(e.value)
     r = cli("curve", "--from-model", "0.0015", "0.0019", "-o", "/proc/x.yaml")
     assert r.returncode == 1 and r.stderr.strip().endswith("cannot write /proc/x.yaml: No such file or directory")
+
+
+def test_a_folder_of_the_users_files_is_not_written_over_but_an_earlier_run_is(bag: Path, tmp_path: Path) -> None:
+    """report -o DIR and demo --out DIR wrote over files of their names in any folder (a user's demo.bag too);
+    a folder of their own earlier run is still written again (the demo is run twice by the quick start)."""
+    user = tmp_path / "user"
+    user.mkdir()
+    (user / "frame.png").write_text("mine")
+    (user / "demo.bag").write_text("my bag")
+    r = cli("report", str(bag), "-o", str(user), "--quiet")
+    assert r.returncode == 1 and f"{user} holds frame.png but no index.html" in r.stderr, r.stderr
+    r = cli("demo", "--out", str(user), "--frames", "2")
+    assert r.returncode == 1 and "holds frame.png, demo.bag but no .kinect-pipeline-demo or quality.json" in r.stderr
+    assert (user / "frame.png").read_text() == "mine" and (user / "demo.bag").read_text() == "my bag"
+    assert sorted(p.name for p in user.iterdir()) == ["demo.bag", "frame.png"]
+    rep = tmp_path / "rep"
+    for _ in range(2):
+        r = cli("report", str(bag), "-o", str(rep), "--quiet")
+        assert r.returncode == 0, r.stderr
+    demo = tmp_path / "demo"
+    for _ in range(2):
+        r = cli("demo", "--out", str(demo), "--frames", "2")
+        assert r.returncode == 0, r.stderr
+    (demo / ".kinect-pipeline-demo").unlink()  # a demo folder of a version before the mark
+    assert cli("demo", "--out", str(demo), "--frames", "2").returncode == 0

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ..outputs import output_folder
+from ..outputs import check_rewrite, output_folder
 from ._common import count
 
 NAME = "demo"
@@ -20,13 +20,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=count(0, 2**64 - 1), default=1, help="seed of the noise [-]")
 
 
+DEMO_FILES = ("quality.json", "frame.png", "scan.png", "demo.bag", "demo_replayed.bag", "report")
+MARK = ".kinect-pipeline-demo"  #: in a folder the demo wrote: its files there are its own to write again
+
+
 def run(args: argparse.Namespace) -> int:
     from ..evaluation.report import write_report
     from ..simulation.sequence_bag import Scenario, write_sequence_bag
     from ..tools.demo import run_demo
     from ..tools.replay import format_report, partial_path, replay
 
+    check_rewrite(Path(args.out), DEMO_FILES, (MARK, "quality.json"), "the demo")  # quality.json: before the mark
     with output_folder(Path(args.out)) as out:
+        (out / MARK).touch()  # first: a run stopped halfway may still be run again
         summary = run_demo(out, frames=args.frames, encoding=args.encoding, seed=args.seed)
         print(json.dumps(summary, indent=1))
         # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.

@@ -128,8 +128,12 @@ def configurations(args: argparse.Namespace) -> list[tuple[str, dict[str, Any]]]
     except FleetError as exc:
         raise ToolError(str(exc)) from exc
     names = [n for n, _ in configs]
-    if len(set(names)) != len(names):
-        raise ToolError(f"configurations with the same name: {', '.join(names)}: rename a file")
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:  # a file named twice, two files of one name, or a --grid value given twice
+        raise ToolError(
+            f"configurations named twice: {', '.join(twice)} (of {', '.join(names)}): expected each once (rename a "
+            "file, or give a --grid value once)"
+        )
     return configs
 
 

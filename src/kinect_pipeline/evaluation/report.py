@@ -23,7 +23,7 @@ from ..bags.messages import LASER_SCAN, stamp
 from ..bags.reader import depth_frames, open_bag, read_side
 from ..bags.tf import read_tf
 from ..figures import plot_frame
-from ..outputs import check_outputs, output_folder, save_figure, write_text
+from ..outputs import check_outputs, check_rewrite, output_folder, save_figure, write_text
 from ..tools.replay import ReplayError, ReplayOptions
 from .metrics import missed_beams, phantom_beams
 
@@ -313,6 +313,7 @@ def write_report(
     out_dir = Path(out_dir)
     items = [Path(p) for p in source] if isinstance(source, (list, tuple)) else [Path(source)]
     check_outputs(items, [out_dir / name for name in FILES], folders=[out_dir])
+    check_rewrite(out_dir, FILES, ("index.html",), "a report")
     if is_frames(items):
         if camera is None:
             raise ReplayError(f"{items[0]}: depth frames need the camera's intrinsics (--intrinsics or --sensor-model)")
