@@ -237,3 +237,10 @@ def test_a_report_of_frames_without_one_depth_pixel_is_refused(
     assert main(["report", str(f), "-o", str(tmp_path / "rep"), "--quiet", "--intrinsics", "100,100,80,60", *pose]) == 1
     assert "no pixel of the 1 frame(s) holds a depth (all are no return)" in capsys.readouterr().err
     assert not (tmp_path / "rep").exists()
+
+
+def test_a_pictures_folder_that_cannot_be_made_fails_before_the_work(capsys: pytest.CaptureFixture[str]) -> None:
+    """cliff computed and printed its whole table, then failed on --pictures /proc/x."""
+    assert main(["cliff", "--frames", "1", "--quiet", "--pictures", "/proc/x"]) == 1
+    out = capsys.readouterr()
+    assert out.out == "" and "cannot make the folder /proc/x" in out.err, out

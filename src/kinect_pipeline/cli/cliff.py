@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 
 from ..outputs import output_folder
@@ -22,14 +23,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..evaluation.cliff import EDGE, STEP, evaluate, picture, table
 
-    rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
-    print(
-        f"negative obstacles: a stair down {EDGE:g} m ahead ({STEP * 100:g} cm step) and a flat floor, Kinect v2 at "
-        f"1.1 m tilted 0.3 rad, {args.frames} frames per condition, {args.encoding} with noise, dropouts and "
-        "flying pixels; cliff_in_scan on:"
-    )
-    print(table(rows))
-    if args.pictures:
-        with output_folder(Path(args.pictures)) as out:
+    # The pictures' folder first: one that cannot be made fails before the table's work, not after it.
+    with output_folder(Path(args.pictures)) if args.pictures else contextlib.nullcontext() as out:
+        rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
+        print(
+            f"negative obstacles: a stair down {EDGE:g} m ahead ({STEP * 100:g} cm step) and a flat floor, Kinect v2 "
+            f"at 1.1 m tilted 0.3 rad, {args.frames} frames per condition, {args.encoding} with noise, dropouts and "
+            "flying pixels; cliff_in_scan on:"
+        )
+        print(table(rows))
+        if out is not None:
             print("pictures: " + "  ".join(str(p) for p in picture(out, args.encoding)))
     return 0
