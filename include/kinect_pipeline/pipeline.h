@@ -124,8 +124,11 @@ public:
   const PlaneModel& planes() const { return planes_; }
   /** @return the floor refinement (its learned correction). */
   const FloorFit& floorFit() const { return floor_fit_; }
-  /** @brief Continues the floor refinement from a FloorFit::state() (e.g. of another run of the same frames). */
-  void restoreFloorFit(const FloorFit::State& s) { floor_fit_.restore(s); }
+  /**
+   * @brief Continues the floor refinement from a FloorFit::state() (e.g. of another run of the same frames).
+   * @throws std::invalid_argument with FloorFit::stateProblem() under this config; the state is then unchanged
+   */
+  void restoreFloorFit(const FloorFit::State& s);
   /** @return the scan projector as of the last frame. */
   const ScanProjector& projector() const { return projector_; }
 

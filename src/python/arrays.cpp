@@ -41,6 +41,39 @@ std::string typeName(const py::handle& obj) { return py::str(py::type::handle_of
 
 namespace
 {
+[[noreturn]] void wrongType(const py::handle& v, const std::string& what, const char* expected)
+{
+  throw py::type_error(what + " = " + std::string(py::repr(v)) + " (" + typeName(v) + "): expected " + expected);
+}
+}  // namespace
+
+double numberOf(const py::handle& v, const std::string& what)
+{
+  // PyNumber_Check: int, float, bool, numpy scalars; not str, None, lists (py::cast<double> reports those as an
+  // unnamed RuntimeError, or, through float(), takes "1.0").
+  if (py::isinstance<py::str>(v) || !PyNumber_Check(v.ptr()) || py::hasattr(v, "__len__"))
+    wrongType(v, what, "a number");
+  try
+  {
+    return py::cast<double>(v);
+  }
+  catch (const py::cast_error&)
+  {
+    wrongType(v, what, "a number");
+  }
+}
+
+bool flagOf(const py::handle& v, const std::string& what)
+{
+  const bool numpy_bool = py::hasattr(v, "dtype") && !py::hasattr(v, "__len__") &&
+                          py::str(v.attr("dtype").attr("kind")).cast<std::string>() == "b";
+  if (!PyBool_Check(v.ptr()) && !numpy_bool)
+    wrongType(v, what, "True or False");
+  return py::cast<bool>(v);
+}
+
+namespace
+{
 /** @throw py::value_error unless @p arr is 2-D with at least one pixel. */
 void checkShape(const py::array& arr, const char* what)
 {

@@ -25,6 +25,15 @@ int cvTypeOf(Encoding e);
 std::string typeName(const py::handle& obj);
 
 /**
+ * A real number (int, float or a numpy scalar; not a str, None or a sequence) as a double.
+ * @throw py::type_error "WHAT = 'abc' (str): expected a number"
+ */
+double numberOf(const py::handle& v, const std::string& what);
+
+/** True or False (a Python or numpy bool only). @throw py::type_error "WHAT = None (NoneType): expected True or False" */
+bool flagOf(const py::handle& v, const std::string& what);
+
+/**
  * A 2-D uint8, uint16 or float32 numpy array as a cv::Mat. Zero-copy when rows are positive-strided and pixels
  * adjacent; otherwise a C-contiguous, native-order copy is made. Either way the array is kept alive in @p keep.
  * @param what the argument's name, quoted in errors

@@ -99,7 +99,7 @@ void setFieldValue(Config& c, const ConfigField& f, const py::handle& v)
       c.*f.integer = py::cast<int>(v);
       return;
     case FieldKind::kFlag:
-      c.*f.flag = py::cast<bool>(v);
+      c.*f.flag = flagOf(v, std::string("Config.") + f.name);  // None or 0.5 were taken for their truth
       return;
     case FieldKind::kChoice:
       f.setText(c, py::cast<std::string>(v));
@@ -184,7 +184,11 @@ Config configOf(const py::kwargs& kw)
     std::vector<std::string> given;
     for (const auto& item : kw)
       given.push_back(py::cast<std::string>(item.first));
-    applySensorModel(py::cast<std::string>(kw["sensor_model"]), c, given);
+    const py::handle model = kw["sensor_model"];
+    if (!py::isinstance<py::str>(model))
+      throw py::type_error("Config.sensor_model = " + std::string(py::repr(model)) + " (" + typeName(model) +
+                           "): expected a sensor preset's name (str)");
+    applySensorModel(py::cast<std::string>(model), c, given);
   }
   for (const auto& item : kw)
     if (py::cast<std::string>(item.first) != "sensor_model")

@@ -54,7 +54,7 @@ double stampOf(const py::object& stamp)
 {
   if (stamp.is_none())
     return std::numeric_limits<double>::quiet_NaN();
-  const double t = py::cast<double>(stamp);
+  const double t = numberOf(stamp, "stamp");
   if (!std::isfinite(t))
     throw py::value_error("stamp = " + std::string(py::repr(stamp)) + ": expected a finite time in seconds or None");
   return t;
@@ -249,8 +249,15 @@ void bindResult(py::module_& m)
 /** Predicted depth per pixel [m] of the floor or the ceiling plane at the last frame's pose. */
 py::array_t<double> predicted(PyPipeline& self, bool floor)
 {
+  std::lock_guard<std::mutex> lock(self.mutex);
   const PlaneModel& p = self.pipe.planes();
   const Camera& c = self.pipe.camera();
+  // The planes exist from a frame's pose on: none yet (a new pipeline, a refused frame, a new config) read past
+  // the terms' ends.
+  if (p.colTerm().size() != static_cast<std::size_t>(c.width) || p.rowTerm().size() != static_cast<std::size_t>(c.height))
+    throw std::runtime_error(std::string(floor ? "predicted_floor" : "predicted_ceiling") +
+                             "(): no planes yet: they are those of the last frame's pose, and no frame was processed "
+                             "since the pipeline was made or its config set: expected process() first");
   py::array_t<double> out({c.height, c.width});
   auto o = out.mutable_unchecked<2>();
   for (int r = 0; r < c.height; ++r)
@@ -261,7 +268,13 @@ py::array_t<double> predicted(PyPipeline& self, bool floor)
 
 py::object finiteOrNone(double v) { return std::isfinite(v) ? py::cast(v) : py::none(); }
 
-double noneAsNan(const py::handle& v) { return v.is_none() ? std::numeric_limits<double>::quiet_NaN() : py::cast<double>(v); }
+/** Element i of a floor_state tuple as a number (None: NaN where @p none_ok). */
+double stateItem(const py::tuple& t, std::size_t i, bool none_ok = false)
+{
+  if (none_ok && t[i].is_none())
+    return std::numeric_limits<double>::quiet_NaN();
+  return numberOf(t[i], "floor_state[" + std::to_string(i) + "]");
+}
 
 constexpr std::size_t kProfileBands = FloorProfileBands::kBands;
 constexpr std::size_t kFullState = 8 + 2 * kProfileBands;
@@ -290,17 +303,17 @@ void setFloorState(PyPipeline& self, const py::tuple& t)
                           std::to_string(kProfileBands) + " biases, " + std::to_string(kProfileBands) +
                           " weights and the time since it learned]]), got " + std::string(py::repr(t)));
   FloorFit::State s;
-  s.learned = {py::cast<double>(t[0]), py::cast<double>(t[1]), py::cast<double>(t[2])};
-  s.last_stamp = noneAsNan(t[3]);
+  s.learned = {stateItem(t, 0), stateItem(t, 1), stateItem(t, 2)};
+  s.last_stamp = stateItem(t, 3, true);
   if (t.size() >= 7)
-    s.weight = {noneAsNan(t[4]), noneAsNan(t[5]), noneAsNan(t[6])};
+    s.weight = {stateItem(t, 4, true), stateItem(t, 5, true), stateItem(t, 6, true)};
   s.profile = FloorProfile().bands();
   if (t.size() == kFullState)
     for (std::size_t k = 0; k < kProfileBands; ++k)
     {
-      s.profile.bias[k] = py::cast<float>(t[7 + k]);
-      s.profile.weight[k] = py::cast<float>(t[7 + kProfileBands + k]);
-      s.profile.since_learned = py::cast<double>(t[7 + 2 * kProfileBands]);
+      s.profile.bias[k] = static_cast<float>(stateItem(t, 7 + k));
+      s.profile.weight[k] = static_cast<float>(stateItem(t, 7 + kProfileBands + k));
+      s.profile.since_learned = stateItem(t, 7 + 2 * kProfileBands);
     }
   std::lock_guard<std::mutex> lock(self.mutex);
   self.pipe.restoreFloorFit(s);

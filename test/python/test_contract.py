@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import threading
+from typing import Any
 
 import numpy as np
 import pytest
@@ -137,6 +138,25 @@ def test_predicted_planes_are_exposed(cam: kp.Camera) -> None:
     assert np.isinf(ceiling[211, 255])
 
 
+def test_predicted_planes_before_a_frame_are_refused_not_read_past_their_ends(cam: kp.Camera) -> None:
+    """A new pipeline, one whose only frame was refused, and one given a new config have no planes yet: reading
+    them crashed the process (SIGSEGV)."""
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT))
+    for step in ("new", "refused frame", "new config"):
+        if step == "refused frame":
+            with pytest.raises(ValueError):
+                pipe.process(np.zeros((10, 10), np.uint16))
+        if step == "new config":
+            pipe.process(np.zeros((424, 512), np.uint16))
+            assert pipe.predicted_floor().shape == (424, 512)
+            pipe.config = kp.Config(sensor_height=0.5)
+        for read in (pipe.predicted_floor, pipe.predicted_ceiling):
+            with pytest.raises(RuntimeError, match=r"no planes yet: .* expected process\(\) first"):
+                read()
+    pipe.process(np.zeros((424, 512), np.uint16))
+    assert np.isfinite(pipe.predicted_floor()).any()
+
+
 def test_non_contiguous_and_negative_strides_give_the_same_answer(cam: kp.Camera) -> None:
     frame = render_frame(cam, boxes_scene(), HEIGHT, TILT, 0.0, "16UC1", seed=3)
     pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT))
@@ -247,3 +267,60 @@ def test_confidence_of_a_beam_that_appears(cam: kp.Camera) -> None:
     seen = np.isfinite(r1.ranges)
     assert seen.sum() > 50
     assert np.all(r1.intensities[seen] == 1.0)
+
+
+def _bad_states(st: tuple) -> list[tuple[tuple, str]]:
+    n = 16  # the profile's bands
+    return [
+        ((0.2, *st[1:]), r"learned height = 0\.2: expected finite, within the config's floor_max_height_error 0\.08"),
+        ((math.nan, *st[1:]), "learned height = nan"),
+        ((*st[:3], math.inf, *st[4:]), "last stamp = inf"),
+        ((*st[:4], -1.0, *st[5:]), "weight of the learned height = -1"),
+        ((*st[:7], *(math.nan,) * n, *st[7 + n :]), "profile bias 0 = nan"),
+        ((*st[:7], 1e40, *st[8:]), "profile bias 0 = inf"),
+        ((*st[: 7 + n], -1.0, *st[8 + n :]), "profile weight 0 = -1"),
+        ((*st[:-1], math.nan), "time since the profile learned = nan"),
+    ]
+
+
+def test_a_floor_state_the_config_cannot_hold_is_refused_and_the_old_one_kept(cam: kp.Camera) -> None:
+    """NaN, out-of-bounds or negative values were taken as they were and spoilt every later frame (a NaN profile:
+    no floor pixel in any frame; a learned height of 0.2 m past its 0.08 m bound applied as it was)."""
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT))
+    frame = kp.encode_depth(kp.render_scene(cam, HEIGHT, TILT, 0.0)["depth"], "16UC1", 12.0)
+    pipe.process(frame, stamp=0.0)
+    good = pipe.floor_state
+    assert len(good) == 8 + 2 * 16
+    for bad, says in _bad_states(good):
+        with pytest.raises(ValueError, match=rf"^floor state: {says}"):
+            pipe.floor_state = bad
+        assert pipe.floor_state == good, "a refused state leaves the one there"
+    with pytest.raises(TypeError, match=r"floor_state\[2\] = 'x' \(str\): expected a number"):
+        pipe.floor_state = (*good[:2], "x", *good[3:])
+    pipe.floor_state = good
+    assert (pipe.process(frame, stamp=0.1).labels == kp.LABELS["floor"]).any()
+
+
+@pytest.mark.parametrize(
+    ("call", "says"),
+    [
+        (lambda: kp.Config(sensor_model=None), r"Config\.sensor_model = None \(NoneType\): expected a sensor preset"),
+        (lambda: kp.Config(cliff_scan=None), r"Config\.cliff_scan = None \(NoneType\): expected True or False"),
+        (lambda: kp.Config(refine_floor=0.5), r"Config\.refine_floor = 0\.5 \(float\): expected True or False"),
+        (lambda: kp.Config(intensity_filter=1), r"Config\.intensity_filter = 1 \(int\): expected True or False"),
+    ],
+)
+def test_a_flag_or_a_name_of_another_type_is_refused_naming_it(call: Any, says: str) -> None:
+    """A flag took any truth value (None: False, 0.5: True); a sensor_model of None was an unnamed RuntimeError."""
+    with pytest.raises(TypeError, match=says):
+        call()
+    assert kp.Config(cliff_scan=np.bool_(True)).cliff_scan is True
+
+
+def test_a_stamp_that_is_not_a_number_is_refused_naming_it(cam: kp.Camera) -> None:
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT))
+    frame = np.zeros((424, 512), np.uint16)
+    for stamp in ("1.0", [1.0]):
+        with pytest.raises(TypeError, match=r"^stamp = .*: expected a number"):
+            pipe.process(frame, stamp=stamp)
+    pipe.process(frame, stamp=np.float64(1.0))

@@ -7,6 +7,7 @@ import contextlib
 import os
 import re
 import subprocess
+import sys
 from collections.abc import Iterator
 
 import numpy as np
@@ -64,6 +65,27 @@ def test_the_environment_variable_restricts_the_dispatch() -> None:
     r = _bench(env={"KINECT_PIPELINE_SIMD": "scalar"})
     assert r.returncode == 0, r.stderr
     assert _targets_ran(r.stdout) == ["scalar"], r.stdout
+
+
+@pytest.mark.parametrize("env", ["sse4", "mmx"])
+def test_an_explicit_restriction_wins_over_the_environment_variable(env: str) -> None:
+    """The variable took effect at the first simd_target() or Pipeline(), and then undid a restrict_simd() made
+    before it; a bad value refused every Pipeline for good, even after a good restrict_simd()."""
+    code = (
+        "import kinect_pipeline as kp\n"
+        "kp.restrict_simd('scalar')\n"
+        "cam = kp.Camera(64, 48, 60.0, 60.0, 32.0, 24.0)\n"
+        "kp.Pipeline(cam, kp.Config(sensor_height=1.0, sensor_pitch=0.3))\n"
+        "print(kp.simd_target())\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "KINECT_PIPELINE_SIMD": env},
+    )
+    assert r.returncode == 0 and r.stdout.strip() == "scalar", r.stdout + r.stderr
 
 
 def test_the_environment_variable_holds_for_the_core_tests_after_an_every_target_test() -> None:

@@ -116,6 +116,12 @@ public:
   State state() const;
   /** @brief Continues from a state(): the next frame is processed as it would have been after that frame. */
   void restore(const State& s);
+  /**
+   * @return what a state() could not hold under @p config, naming the field, its value and what was expected
+   *         (empty: none): a learned correction beyond the config's bounds or not finite, a stamp or weight that
+   *         is not finite (NaN: none) or negative, a floor profile's bias, weight or time that is not finite.
+   */
+  static std::string stateProblem(const State& s, const Config& config);
 
   /** A sampled pixel that can be floor, in the gravity-aligned frame at the sensor under the corrected prior. */
   struct Point

@@ -84,7 +84,9 @@ std::string simdTarget()
 // Highway's mask of supported targets is what restricts the dispatch here (SetSupportedTargetsForTest): with
 // DisableTargets instead, the kernels of a benchmark run stayed on AVX-512 (Highway 1.0.3). simdTarget() asks the
 // dispatch which target it runs, so a restriction that does not hold shows (kp_test::forEachSimdTarget checks it).
-void restrictSimd(const std::string& target)
+namespace
+{
+void applyTarget(const std::string& target)
 {
   const std::int64_t cpu = cpuTargets();
   if (target == "native")
@@ -104,25 +106,50 @@ void restrictSimd(const std::string& target)
                               joined(simdTargets()) + ")");
 }
 
+// KINECT_PIPELINE_SIMD, applied once per process unless restrictSimd came first (an explicit call wins over the
+// environment, whenever it is made); what was wrong with its value, until restrictSimd replaces it.
+struct Environment
+{
+  std::mutex mutex;
+  bool applied = false;
+  std::string problem;
+};
+Environment& environment()
+{
+  static Environment e;
+  return e;
+}
+}  // namespace
+
+void restrictSimd(const std::string& target)
+{
+  applyTarget(target);  // throws for a bad name before the environment is set aside
+  Environment& e = environment();
+  std::lock_guard<std::mutex> lock(e.mutex);
+  e.applied = true;
+  e.problem.clear();
+}
+
 void detail::simdFromEnvironment()
 {
-  static std::once_flag once;
-  static std::string problem;
-  std::call_once(once, [] {
+  Environment& e = environment();
+  std::lock_guard<std::mutex> lock(e.mutex);
+  if (!e.applied)
+  {
+    e.applied = true;
     const char* env = std::getenv("KINECT_PIPELINE_SIMD");
-    if (env == nullptr || *env == '\0')
-      return;
-    try
-    {
-      restrictSimd(env);
-    }
-    catch (const std::invalid_argument& e)
-    {
-      problem = std::string("KINECT_PIPELINE_SIMD: ") + e.what();
-    }
-  });
-  if (!problem.empty())
-    throw std::invalid_argument(problem);
+    if (env != nullptr && *env != '\0')
+      try
+      {
+        applyTarget(env);
+      }
+      catch (const std::invalid_argument& err)
+      {
+        e.problem = std::string("KINECT_PIPELINE_SIMD: ") + err.what();
+      }
+  }
+  if (!e.problem.empty())
+    throw std::invalid_argument(e.problem);
 }
 }  // namespace kinect_pipeline
 #endif  // HWY_ONCE

@@ -300,6 +300,13 @@ void Pipeline::setCamera(const Camera& camera)
   planes_ = PlaneModel();
 }
 
+void Pipeline::restoreFloorFit(const FloorFit::State& s)
+{
+  if (const std::string problem = FloorFit::stateProblem(s, config_); !problem.empty())
+    throw std::invalid_argument(problem);
+  floor_fit_.restore(s);
+}
+
 void Pipeline::reset()
 {
   confidence_.reset();

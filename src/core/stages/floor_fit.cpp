@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/plane_fit.h"
@@ -399,6 +400,42 @@ FloorFit::State FloorFit::state() const
   const double nan = std::numeric_limits<double>::quiet_NaN();
   return {learned_, has_stamp_ ? last_stamp_ : nan, has_weight_ ? weight_ : PoseCorrection{nan, nan, nan},
           profile_.bands()};
+}
+
+std::string FloorFit::stateProblem(const State& s, const Config& c)
+{
+  const auto text = [](double v) {
+    std::ostringstream o;
+    o << v;
+    return o.str();
+  };
+  const auto bad = [&](const std::string& field, double v, const std::string& expected) {
+    return "floor state: " + field + " = " + text(v) + ": expected " + expected;
+  };
+  const double bound[3] = {c.floor_max_height_error, c.floor_max_pitch_error, c.floor_max_roll_error};
+  const double learned[3] = {s.learned.height, s.learned.pitch, s.learned.roll};
+  const double weight[3] = {s.weight.height, s.weight.pitch, s.weight.roll};
+  const char* term[3] = {"height", "pitch", "roll"};
+  for (int i = 0; i < 3; ++i)
+  {
+    if (!(std::fabs(learned[i]) <= bound[i]))
+      return bad(std::string("learned ") + term[i], learned[i],
+                 "finite, within the config's floor_max_" + std::string(term[i]) + "_error " + text(bound[i]));
+    if (!std::isnan(weight[i]) && !(std::isfinite(weight[i]) && weight[i] >= 0.0))
+      return bad(std::string("weight of the learned ") + term[i], weight[i], "finite and >= 0, or none (NaN)");
+  }
+  if (std::isinf(s.last_stamp))
+    return bad("last stamp", s.last_stamp, "finite, or none (NaN)");
+  for (int k = 0; k < FloorProfileBands::kBands; ++k)
+  {
+    if (!std::isfinite(s.profile.bias[k]))
+      return bad("profile bias " + std::to_string(k), s.profile.bias[k], "finite");
+    if (!(std::isfinite(s.profile.weight[k]) && s.profile.weight[k] >= 0.0f))
+      return bad("profile weight " + std::to_string(k), s.profile.weight[k], "finite and >= 0");
+  }
+  if (!(std::isfinite(s.profile.since_learned) && s.profile.since_learned >= 0.0))
+    return bad("time since the profile learned", s.profile.since_learned, "finite and >= 0 [s]");
+  return {};
 }
 
 void FloorFit::restore(const State& s)
