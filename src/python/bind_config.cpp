@@ -1,5 +1,6 @@
 // Binding of the config table (model/config_table.h: every field an attribute), the threshold curve and the sensor
 // presets.
+#include <cmath>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -240,6 +241,10 @@ void bindCurve(py::module_& m)
       "threshold_lut",
       [](const py::object& curve, const std::string& encoding, double max_depth) {
         const std::vector<CurvePoint> points = curveOf(curve);
+        Config c;  // the table's depth scale is Config.max_depth's: the same range
+        c.max_depth = max_depth;
+        if (const std::string problem = configField("max_depth").rangeProblem(c); !problem.empty())
+          throw py::value_error("threshold_lut: " + problem);
         ThresholdLut lut;
         lut.build(points, encodingFromString(encoding), max_depth);
         return vecToArray(lut.table());
@@ -247,19 +252,33 @@ void bindCurve(py::module_& m)
       py::arg("curve"), py::arg("encoding"), py::arg("max_depth") = 12.0,
       "The threshold lookup table the pipeline uses (8UC1: by value; others: by 1 cm cell).");
   m.def(
-      "evaluate_curve", [](const py::object& curve, double depth) { return evaluateCurve(curveOf(curve), depth); },
+      "evaluate_curve",
+      [](const py::object& curve, double depth) {
+        if (std::isnan(depth))
+          throw py::value_error("evaluate_curve: depth = nan: expected a depth [m]");
+        return evaluateCurve(curveOf(curve), depth);
+      },
       py::arg("curve"), py::arg("depth"),
       "t(depth) [m] of a threshold curve ('d:t, ...' text or (depth, threshold) pairs) by piecewise-linear "
       "interpolation, flat beyond the ends; depth may also be an array of depths [m].");
   m.def(
       "evaluate_curve",
-      [](const py::object& curve, const py::array_t<double, py::array::forcecast>& depths) {
+      [](const py::object& curve, const py::object& depth) {
+        const auto given = py::array::ensure(depth);  // numpy's asarray: lists too
+        if (!given || (given.dtype().kind() != 'f' && given.dtype().kind() != 'i' && given.dtype().kind() != 'u'))
+          throw py::type_error("evaluate_curve: depth = " + std::string(py::repr(depth)) + " (" + typeName(depth) +
+                               "): expected a number or an array of numbers [m]");
+        const auto depths = py::array_t<double, py::array::forcecast>::ensure(given);
         const std::vector<CurvePoint> points = curveOf(curve);
         py::array_t<double> out(depths.request().shape);
         const double* in = depths.data();
         double* o = out.mutable_data();
         for (py::ssize_t i = 0; i < depths.size(); ++i)
+        {
+          if (std::isnan(in[i]))
+            throw py::value_error("evaluate_curve: depth [" + std::to_string(i) + "] = nan: expected a depth [m]");
           o[i] = evaluateCurve(points, in[i]);
+        }
         return out;
       },
       py::arg("curve"), py::arg("depth"));

@@ -254,7 +254,8 @@ py::array_t<double> predicted(PyPipeline& self, bool floor)
   const Camera& c = self.pipe.camera();
   // The planes exist from a frame's pose on: none yet (a new pipeline, a refused frame, a new config) read past
   // the terms' ends.
-  if (p.colTerm().size() != static_cast<std::size_t>(c.width) || p.rowTerm().size() != static_cast<std::size_t>(c.height))
+  const auto size = [](int n) { return static_cast<std::size_t>(n); };
+  if (p.colTerm().size() != size(c.width) || p.rowTerm().size() != size(c.height))
     throw std::runtime_error(std::string(floor ? "predicted_floor" : "predicted_ceiling") +
                              "(): no planes yet: they are those of the last frame's pose, and no frame was processed "
                              "since the pipeline was made or its config set: expected process() first");

@@ -2,6 +2,7 @@
 // (calibration.h), the debug picture (visualize.h), the baseline scan, and the pipeline's opening on its own. The
 // tools (kinect_pipeline.scenes, bag, quality, calibrate, demo) and the tests use them; the node does not.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <string>
@@ -206,6 +207,12 @@ void bindPictures(py::module_& m)
       [](const py::object& img, int ksize, const std::string& shape) {
         py::object keep;
         cv::Mat m = asMat(img, "image", keep);
+        for (int r = 0; m.type() == CV_32FC1 && r < m.rows; ++r)
+          for (int u = 0; u < m.cols; ++u)
+            if (std::isnan(m.ptr<float>(r)[u]))
+              throw py::value_error("image: NaN at row " + std::to_string(r) + ", column " + std::to_string(u) +
+                                    ": expected no NaN (the opening's order of NaN is undefined: map unknown "
+                                    "pixels to +inf first, as the pipeline does)");
         cv::Mat out, scratch;
         morphOpen(m, out, ksize, kernelShapeFromString(shape), scratch);
         return matToArray(out);

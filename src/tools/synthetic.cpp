@@ -5,7 +5,10 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <sstream>
+#include <string>
 
+#include "kinect_pipeline/model/config_table.h"
 #include "kinect_pipeline/model/pose.h"
 
 namespace kinect_pipeline
@@ -42,11 +45,43 @@ bool slab(const Vec3& o, const Vec3& d, const Box& b, double& t_in, double& t_ou
   }
   return t_in <= t_out && t_out > 0.0;
 }
+/** @throw std::invalid_argument "WHERE: NAME = V: expected EXPECTED" unless @p ok. */
+void require(bool ok, const char* where, const std::string& name, double v, const char* expected)
+{
+  if (ok)
+    return;
+  std::ostringstream m;
+  m << where << ": " << name << " = " << v << ": expected " << expected;
+  throw std::invalid_argument(m.str());
+}
+
+/** The inputs renderScene can draw: a camera above the floor, a pose within a quarter turn, finite boxes. */
+void checkScene(double height, double pitch, double roll, const Scene& s)
+{
+  const char* where = "renderScene";
+  require(std::isfinite(height) && height > 0.0, where, "height", height, "a finite height above the floor > 0 m");
+  require(std::fabs(pitch) <= M_PI / 2, where, "pitch", pitch, "a finite angle within +-pi/2 rad");
+  require(std::fabs(roll) <= M_PI / 2, where, "roll", roll, "a finite angle within +-pi/2 rad");
+  require(s.ceiling == 0.0 || (std::isfinite(s.ceiling) && s.ceiling > height), where, "ceiling", s.ceiling,
+          "0 (none) or a finite height above the sensor's");
+  require(std::isfinite(s.hole_depth) && s.hole_depth > 0.0, where, "hole_depth", s.hole_depth, "a finite depth > 0 m");
+  for (const auto* list : {&s.boxes, &s.holes})
+    for (std::size_t i = 0; i < list->size(); ++i)
+    {
+      const Box& b = (*list)[i];
+      const bool holes = list == &s.holes;
+      const bool ok = b.x0 < b.x1 && b.y0 < b.y1 && (holes || b.z0 < b.z1) &&
+                      std::isfinite(b.x0 + b.x1 + b.y0 + b.y1 + (holes ? 0.0 : b.z0 + b.z1));
+      require(ok, where, std::string(holes ? "hole " : "box ") + std::to_string(i) + " x0", b.x0,
+              holes ? "finite x0 < x1, y0 < y1 [m]" : "finite x0 < x1, y0 < y1, z0 < z1 [m]");
+    }
+}
 }  // namespace
 
 void renderScene(const Camera& camera, double height, double pitch, double roll, const Scene& scene, Rendering& out)
 {
   camera.validate();
+  checkScene(height, pitch, roll, scene);
   out.depth.create(camera.height, camera.width, CV_32F);
   out.height.create(camera.height, camera.width, CV_32F);
   out.range.create(camera.height, camera.width, CV_32F);
@@ -176,6 +211,9 @@ void addKinectNoise(cv::Mat& depth, std::uint64_t seed, double sigma0, double k,
 {
   if (depth.type() != CV_32FC1)
     throw std::invalid_argument("addKinectNoise: image type " + cv::typeToString(depth.type()) + ": expected 32FC1");
+  require(std::isfinite(sigma0) && sigma0 >= 0.0, "addKinectNoise", "sigma0", sigma0, "a finite sigma >= 0 m");
+  require(std::isfinite(k) && k >= 0.0, "addKinectNoise", "k", k, "a finite factor >= 0 m/m^2");
+  require(dropout >= 0.0 && dropout <= 1.0, "addKinectNoise", "dropout", dropout, "a fraction in [0, 1]");
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
@@ -198,6 +236,9 @@ void addTofArtefacts(cv::Mat& depth, std::uint64_t seed, double max_range, doubl
 {
   if (depth.type() != CV_32FC1)
     throw std::invalid_argument("addTofArtefacts: image type " + cv::typeToString(depth.type()) + ": expected 32FC1");
+  require(max_range > 0.0, "addTofArtefacts", "max_range", max_range, "a range > 0 m (+inf: none)");
+  require(flying >= 0.0 && flying <= 1.0, "addTofArtefacts", "flying", flying, "a probability in [0, 1]");
+  require(edge_jump > 0.0, "addTofArtefacts", "edge_jump", edge_jump, "a jump > 0 m");
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   const cv::Mat src = depth.clone();
@@ -290,6 +331,12 @@ void addStereoArtefacts(cv::Mat& depth, std::uint64_t seed, const StereoArtefact
 
 cv::Mat encodeDepth(const cv::Mat& metres, int type, double max_depth)
 {
+  {
+    Config c;  // the 8-bit scale is Config.max_depth's: the same range
+    c.max_depth = max_depth;
+    if (const std::string problem = configField("max_depth").rangeProblem(c); !problem.empty())
+      throw std::invalid_argument("encodeDepth: " + problem);
+  }
   if (metres.type() != CV_32FC1)
     throw std::invalid_argument("encodeDepth: image type " + cv::typeToString(metres.type()) + ": expected 32FC1");
   if (type == CV_32FC1)

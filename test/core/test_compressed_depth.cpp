@@ -371,7 +371,11 @@ TEST(CompressedDepth, Refuses32BitHeadersWithoutAQuantisation)
   expectInvalid([&] { decodeCompressedDepth("32FC1; compressedDepth", concat(nan_a, body)); },
                 {"depthQuantA = nan", "finite"});
   expectInvalid([&] { decodeCompressedDepth("32FC1; compressedDepth", concat(kHeader16, body)); },
-                {"depthQuantA = 0", "!= 0"});
+                {"depthQuantA = 0", "> 0"});
+  // A = -1: every depth came back negative, as if valid.
+  const Bytes negative_a = {0, 0, 0, 0, 0x00, 0x00, 0x80, 0xbf, 0x00, 0x00, 0x00, 0x00};
+  expectInvalid([&] { decodeCompressedDepth("32FC1; compressedDepth", concat(negative_a, body)); },
+                {"depthQuantA = -1", "> 0"});
 }
 
 TEST(CompressedDepth, RefusesMalformedRvl)
@@ -413,5 +417,9 @@ TEST(CompressedDepth, EncoderRefusesOtherImagesAndOptions)
   expectInvalid(with([](CompressedDepthOptions& o) { o.depth_max = 0.0; }), {"depth_max = 0", "> 0"});
   expectInvalid(with([](CompressedDepthOptions& o) { o.depth_max = NAN; }), {"depth_max = nan"});
   expectInvalid(with([](CompressedDepthOptions& o) { o.depth_quantization = -1.0; }), {"depth_quantization = -1"});
+  // Outside the publisher's range, 16 bits of inverse depth keep nothing (1e6) or errors of metres (1e-6).
+  for (const double z0 : {1e-6, 0.5, 151.0, 1e6})
+    expectInvalid(with([z0](CompressedDepthOptions& o) { o.depth_quantization = z0; }),
+                  {"depth_quantization", "1 to 150"});
   expectInvalid(with([](CompressedDepthOptions& o) { o.png_level = 10; }), {"png_level = 10", "0 (none) to 9"});
 }

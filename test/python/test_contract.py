@@ -324,3 +324,41 @@ def test_a_stamp_that_is_not_a_number_is_refused_naming_it(cam: kp.Camera) -> No
         with pytest.raises(TypeError, match=r"^stamp = .*: expected a number"):
             pipe.process(frame, stamp=stamp)
     pipe.process(frame, stamp=np.float64(1.0))
+
+
+@pytest.mark.parametrize(
+    ("call", "exc", "says"),
+    [
+        (lambda c: kp.evaluate_curve(c, None), TypeError, r"depth = None \(NoneType\): expected a number"),
+        (lambda c: kp.evaluate_curve(c, math.nan), ValueError, "depth = nan: expected a depth"),
+        (lambda c: kp.evaluate_curve(c, [1.0, math.nan]), ValueError, r"depth \[1\] = nan"),
+        (lambda c: kp.threshold_lut(c, "8UC1", math.nan), ValueError, r"Config\.max_depth = nan: expected a value in"),
+        (lambda c: kp.threshold_lut(c, "16UC1", math.inf), ValueError, r"Config\.max_depth = inf"),
+        (lambda c: kp.encode_depth(np.ones((2, 2), np.float32), "8UC1", -1.0), ValueError, r"max_depth = -1"),
+        (lambda c: kp.add_kinect_noise(np.ones((2, 2), np.float32), 1, sigma0=math.nan), ValueError, "sigma0 = nan"),
+        (lambda c: kp.add_kinect_noise(np.ones((2, 2), np.float32), 1, dropout=1.5), ValueError, "dropout = 1.5"),
+        (lambda c: kp.render_scene(kp.kinect_v2_camera(), -1.0, 0.3, 0.0), ValueError, "height = -1"),
+        (lambda c: kp.render_scene(kp.kinect_v2_camera(), 1.0, 3.0, 0.0), ValueError, "pitch = 3"),
+        (lambda c: kp.morph_open(np.array([[1, np.nan, 1]] * 3, np.float32), 3), ValueError, "NaN at row 0, column 1"),
+        (
+            lambda c: kp.encode_compressed_depth(np.ones((2, 2), np.float32), depth_quantization=1e6),
+            ValueError,
+            "depth_quantization = 1e\\+06: expected 1 to 150",
+        ),
+    ],
+)
+def test_the_tool_functions_refuse_values_that_give_nothing_usable(call: Any, exc: type, says: str) -> None:
+    """Each returned NaN, negative depths, all-0 images, moved NaN pixels or data 16 bits could not hold."""
+    with pytest.raises(exc, match=says):
+        call(kp.default_threshold_curve())
+    assert kp.evaluate_curve(kp.default_threshold_curve(), [1.0, math.inf]).shape == (2,)
+
+
+def test_a_compressed_depth_header_with_a_negative_quantisation_is_refused() -> None:
+    """depthQuantA = -1 decoded every pixel to a negative depth, as if valid."""
+    import struct
+
+    fmt, data = kp.encode_compressed_depth(np.full((4, 4), 2.0, np.float32))
+    bad = data[:4] + struct.pack("<f", -1.0) + data[8:]
+    with pytest.raises(ValueError, match=r"depthQuantA = -1, .*expected finite values and depthQuantA > 0"):
+        kp.decode_compressed_depth(fmt, bad)

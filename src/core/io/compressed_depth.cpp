@@ -151,9 +151,9 @@ void requireQuantisation(const Payload& p)
     fail("32FC1 compressedDepth payload without its 12-byte header (it starts with the PNG signature): the "
          "inverse-depth quantisation (depthQuantA, depthQuantB) is unknown");
   const float a = p.header.quant_a, b = p.header.quant_b;
-  if (!std::isfinite(a) || a == 0.0f || !std::isfinite(b))
+  if (!(std::isfinite(a) && a > 0.0f) || !std::isfinite(b))
     fail("32FC1 compressedDepth header: depthQuantA = ", a, ", depthQuantB = ", b,
-         ": expected finite values and depthQuantA != 0");
+         ": expected finite values and depthQuantA > 0 (the publisher's is z0 (z0 + 1))");
 }
 
 void checkSize(std::uint32_t width, std::uint32_t height, cv::Size expected, const char* what)
@@ -401,7 +401,10 @@ cv::Mat inverseDepthToMetres(const cv::Mat& inverse, const Header& h)
     const std::uint16_t* in = inverse.ptr<std::uint16_t>(r);
     float* o = out.ptr<float>(r);
     for (int c = 0; c < inverse.cols; ++c)
-      o[c] = in[c] ? h.quant_a / (static_cast<float>(in[c]) - h.quant_b) : nan;
+    {
+      const float z = in[c] ? h.quant_a / (static_cast<float>(in[c]) - h.quant_b) : nan;
+      o[c] = z > 0.0f && z < std::numeric_limits<float>::infinity() ? z : nan;  // a value below depthQuantB: none
+    }
   }
   return out;
 }
@@ -437,8 +440,11 @@ void validate(const CompressedDepthOptions& o)
 {
   if (!(std::isfinite(o.depth_max) && o.depth_max > 0.0))
     fail("CompressedDepthOptions.depth_max = ", o.depth_max, ": expected a finite depth > 0 m");
-  if (!(std::isfinite(o.depth_quantization) && o.depth_quantization > 0.0))
-    fail("CompressedDepthOptions.depth_quantization = ", o.depth_quantization, ": expected a finite value > 0 m");
+  // The publisher's own range (its dynamic_reconfigure): beyond it, 16 bits of inverse depth keep little or nothing
+  // (z0 = 1e-6: errors of metres; 1e6: no pixel representable).
+  if (!(o.depth_quantization >= 1.0 && o.depth_quantization <= 150.0))
+    fail("CompressedDepthOptions.depth_quantization = ", o.depth_quantization,
+         ": expected 1 to 150 m (compressed_depth_image_transport's range; default 100)");
   if (o.png_level < 0 || o.png_level > 9)
     fail("CompressedDepthOptions.png_level = ", o.png_level, ": expected 0 (none) to 9 (smallest)");
 }
