@@ -324,7 +324,7 @@ void bindPipelineClass(py::module_& m)
 {
   py::class_<PyPipeline>(m, "Pipeline", "The per-frame processing. Keeps each beam's confidence history.")
       .def(py::init<const Camera&, const Config&, bool>(), py::arg("camera"), py::arg("config"),
-           py::arg("reference_paths") = false,
+           py::arg("reference_paths").noconvert() = false,
            "reference_paths: every step on its plain reference path instead of the fast one (for checks)")
       .def(
           "process",

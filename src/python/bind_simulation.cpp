@@ -70,7 +70,7 @@ void bindScenes(py::module_& m)
       },
       py::arg("camera"), py::arg("height"), py::arg("pitch"), py::arg("roll"), py::arg("boxes") = std::vector<BoxTuple>{},
       py::arg("holes") = std::vector<HoleTuple>{}, py::arg("hole_depth") = 0.5, py::arg("ceiling") = 0.0,
-      py::arg("floor") = true,
+      py::arg("floor").noconvert() = true,
       "Ray-cast a scene (boxes (x0, x1, y0, y1, z0, z1) and hole footprints (x0, x1, y0, y1) in the gravity-aligned "
       "frame on the floor under the sensor). Returns dict of depth [m, +Inf none], height [m], range [m], angle [rad], "
       "object (-1 none, 0 floor, 1 ceiling, 2 hole, 10+i box i).");

@@ -315,6 +315,12 @@ def test_a_flag_or_a_name_of_another_type_is_refused_naming_it(call: Any, says: 
     with pytest.raises(TypeError, match=says):
         call()
     assert kp.Config(cliff_scan=np.bool_(True)).cliff_scan is True
+    cam = kp.Camera(64, 48, 60.0, 60.0, 32.0, 24.0)
+    for bad in (None, 1):  # the reference paths' switch and the renderer's floor: True or False only too
+        with pytest.raises(TypeError, match="incompatible"):
+            kp.Pipeline(cam, kp.Config(), reference_paths=bad)
+        with pytest.raises(TypeError, match="incompatible"):
+            kp.render_scene(cam, 1.0, 0.3, 0.0, floor=bad)
 
 
 def test_a_stamp_that_is_not_a_number_is_refused_naming_it(cam: kp.Camera) -> None:
