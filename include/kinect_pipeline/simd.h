@@ -22,8 +22,9 @@ std::string simdTarget();
  * Restricts the kernels to one target for the whole process ("native": the best the CPU has, the default).
  * The environment variable KINECT_PIPELINE_SIMD does the same for a process from its first Pipeline (or
  * simdTarget()) on, unless this was called first: a call wins over the variable, made before or after it took
- * effect, and a good name lifts a bad value's refusal. Call it between frames, not while another thread runs one (the frame then mixes targets: the same bits, but Highway's
- * own target mask is not meant to change under a running dispatch).
+ * effect, and a good name lifts a bad value's refusal. Call it between frames, not while another thread runs one
+ * (the frame then mixes targets: the same bits, but Highway's own target mask is not meant to change under a
+ * running dispatch).
  * @throws std::invalid_argument naming the target where it is not one of simdTargets() or "native"
  */
 void restrictSimd(const std::string& target);

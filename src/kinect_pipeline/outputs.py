@@ -190,9 +190,11 @@ def atomic_new(path: PathLike) -> Iterator[Path]:
 
 
 @contextmanager
-def output_folder(path: PathLike) -> Iterator[Path]:
+def output_folder(path: PathLike, mark: str | None = None) -> Iterator[Path]:
     """Yields ``path`` as a folder, created with its missing parents; if the block fails, the folders it created
-    are removed again when they are empty (a failed run leaves no empty folders)."""
+    are removed again when they are empty (a failed run leaves no empty folders). ``mark``: a file made in it
+    first, saying the tool's files there are its own (:func:`check_rewrite`); a failed run that wrote nothing
+    else into a folder it created takes it away again."""
     path = Path(_named(path).path)
     if path.exists() and not path.is_dir():
         raise OutputError(f"{path} exists and is not a folder: expected a folder for the outputs")
@@ -207,9 +209,13 @@ def output_folder(path: PathLike) -> Iterator[Path]:
     except OSError as exc:
         _remove_empty(created)
         raise OutputError(f"cannot make the folder {path}: {exc.strerror}") from exc
+    if mark:
+        (path / mark).touch()
     try:
         yield path
     except BaseException:
+        if mark and path in created and [p.name for p in path.iterdir()] == [mark]:
+            (path / mark).unlink()
         _remove_empty(created)
         raise
 

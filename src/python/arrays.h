@@ -30,7 +30,10 @@ std::string typeName(const py::handle& obj);
  */
 double numberOf(const py::handle& v, const std::string& what);
 
-/** True or False (a Python or numpy bool only). @throw py::type_error "WHAT = None (NoneType): expected True or False" */
+/**
+ * True or False (a Python or numpy bool only).
+ * @throw py::type_error "WHAT = None (NoneType): expected True or False"
+ */
 bool flagOf(const py::handle& v, const std::string& what);
 
 /**

@@ -220,6 +220,13 @@ def test_output_folder_removes_only_what_it_made(tmp_path: Path) -> None:
     with output_folder(keep / "a") as d:
         (d / "f").write_text("x")
     assert (keep / "a" / "f").exists()
+    # A mark made first goes with a new folder its run failed to fill; an old folder keeps its mark.
+    with pytest.raises(ValueError), output_folder(keep / "m", mark=".mark"):
+        raise ValueError("failed")
+    assert not (keep / "m").exists()
+    with pytest.raises(ValueError), output_folder(keep / "a", mark=".mark"):
+        raise ValueError("failed")
+    assert (keep / "a" / ".mark").exists() and (keep / "a" / "f").exists()
 
 
 def test_check_outputs_compares_resolved_paths(tmp_path: Path) -> None:

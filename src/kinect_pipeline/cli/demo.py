@@ -31,8 +31,7 @@ def run(args: argparse.Namespace) -> int:
     from ..tools.replay import format_report, partial_path, replay
 
     check_rewrite(Path(args.out), DEMO_FILES, (MARK, "quality.json"), "the demo")  # quality.json: before the mark
-    with output_folder(Path(args.out)) as out:
-        (out / MARK).touch()  # first: a run stopped halfway may still be run again
+    with output_folder(Path(args.out), mark=MARK) as out:  # the mark first: a run stopped halfway runs again
         summary = run_demo(out, frames=args.frames, encoding=args.encoding, seed=args.seed)
         print(json.dumps(summary, indent=1))
         # The bag tooling on the same kind of sequence: a small seeded bag, replayed offline, and its report.
