@@ -153,6 +153,26 @@ py::buffer_info asBytes(const py::object& obj, const char* what, py::object& kee
   return info;
 }
 
+FloatImage metresImage(const py::handle& obj, const char* what)
+{
+  if (py::isinstance<py::array>(obj))
+  {
+    const py::dtype dt = py::reinterpret_borrow<py::array>(obj).dtype();
+    const std::string name = py::str(static_cast<const py::handle&>(dt));
+    if (dt.kind() != 'f')
+      throw py::type_error(std::string(what) + ": a " + name +
+                           " array: expected float32 metres (an integer depth is in sensor units: for millimetres "
+                           "pass depth.astype(np.float32) / 1000)");
+    if (dt.itemsize() != 4)
+      throw py::type_error(std::string(what) + ": a " + name +
+                           " array: expected float32 metres (no silent narrowing: pass depth.astype(np.float32))");
+  }
+  auto a = FloatImage::ensure(obj);
+  if (!a)
+    throw py::type_error(std::string(what) + ": " + typeName(obj) + ": expected a 2-D float32 array [m]");
+  return a;
+}
+
 namespace
 {
 void checkFloatImage(const FloatImage& depth)

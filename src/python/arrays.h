@@ -61,6 +61,13 @@ py::buffer_info asBytes(const py::object& obj, const char* what, py::object& kee
 /** A float32 depth image [m] as the simulation tools take it (C order; no silent narrowing from float64). */
 using FloatImage = py::array_t<float, py::array::c_style>;
 
+/**
+ * A depth image in metres as the simulation and calibration tools take it: a float32 array (a C-order copy where
+ * needed) or a nested list of numbers. @throw py::type_error naming @p what and its dtype for an integer array
+ * (sensor units, not metres: millimetres would be taken as metres) or a float64 one (no silent narrowing)
+ */
+FloatImage metresImage(const py::handle& obj, const char* what);
+
 /** @return a cv::Mat over @p depth's pixels (no copy). @throw py::value_error unless it is 2-D */
 cv::Mat floatImage(const FloatImage& depth);
 

@@ -90,8 +90,8 @@ void bindNoise(py::module_& m)
 {
   m.def(
       "add_kinect_noise",
-      [](const FloatImage& depth, std::uint64_t seed, double sigma0, double k, double dropout) {
-        py::array_t<float> out = copyOf(depth);
+      [](const py::object& depth, std::uint64_t seed, double sigma0, double k, double dropout) {
+        py::array_t<float> out = copyOf(metresImage(depth, "depth"));
         cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
         addKinectNoise(m, seed, sigma0, k, dropout);
         return out;
@@ -100,8 +100,8 @@ void bindNoise(py::module_& m)
       "Copy of a float32 depth [m] with Kinect-v2-like noise sigma0 + k (z - 0.4)^2 and dropouts (+Inf).");
   m.def(
       "add_tof_artefacts",
-      [](const FloatImage& depth, std::uint64_t seed, double max_range, double flying, double edge_jump) {
-        py::array_t<float> out = copyOf(depth);
+      [](const py::object& depth, std::uint64_t seed, double max_range, double flying, double edge_jump) {
+        py::array_t<float> out = copyOf(metresImage(depth, "depth"));
         cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
         addTofArtefacts(m, seed, max_range, flying, edge_jump);
         return out;
@@ -111,9 +111,9 @@ void bindNoise(py::module_& m)
       "Copy of a float32 depth [m] with pixels beyond max_range unknown (+Inf) and flying pixels at depth jumps.");
   m.def(
       "add_stereo_artefacts",
-      [](const FloatImage& depth, std::uint64_t seed, double focal_baseline, double subpixel, double bias,
+      [](const py::object& depth, std::uint64_t seed, double focal_baseline, double subpixel, double bias,
          double speckle, int smear_rows, double smear_jump, double smear, double max_range, double dropout) {
-        py::array_t<float> out = copyOf(depth);
+        py::array_t<float> out = copyOf(metresImage(depth, "depth"));
         cv::Mat m(static_cast<int>(out.shape(0)), static_cast<int>(out.shape(1)), CV_32FC1, out.mutable_data());
         addStereoArtefacts(m, seed,
                            {focal_baseline, subpixel, bias, speckle, smear_rows, smear_jump, smear, max_range, dropout});
@@ -155,9 +155,10 @@ void bindCalibration(py::module_& m)
 {
   m.def(
       "calibrate_from_floor",
-      [](const FloatImage& depth, const Camera& cam, double max_tilt, double min_fraction, double max_range,
+      [](const py::object& depth, const Camera& cam, double max_tilt, double min_fraction, double max_range,
          int iterations, int stride, std::uint64_t seed) {
-        const cv::Mat m = floatImage(depth);
+        const FloatImage metres = metresImage(depth, "depth");
+        const cv::Mat m = floatImage(metres);
         CalibrationOptions o;
         o.max_tilt = max_tilt;
         o.min_fraction = min_fraction;
@@ -177,8 +178,8 @@ void bindCalibration(py::module_& m)
       "Height, pitch, roll (and 1-sigma) of the sensor from the floor seen in a float32 depth frame [m].");
   m.def(
       "band_scan",
-      [](const FloatImage& depth, const Camera& cam, int band_rows) {
-        return vecToArray(bandScan(floatImage(depth), cam, band_rows));
+      [](const py::object& depth, const Camera& cam, int band_rows) {
+        return vecToArray(bandScan(floatImage(metresImage(depth, "depth")), cam, band_rows));
       },
       py::arg("depth"), py::arg("camera"), py::arg("band_rows") = 1,
       "Baseline (depthimage_to_laserscan's way): nearest depth per column in a band of rows, no floor removal.");

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import kinect_pipeline as kp
+from kinect_pipeline import _core
 from kinect_pipeline.simulation.scenes import FIRST_BOX, FLOOR, Scene, boxes_scene, render_frame
 
 HEIGHT, TILT = 1.1, 0.26
@@ -358,6 +359,26 @@ def test_the_tool_functions_refuse_values_that_give_nothing_usable(call: Any, ex
     with pytest.raises(exc, match=says):
         call(kp.default_threshold_curve())
     assert kp.evaluate_curve(kp.default_threshold_curve(), [1.0, math.inf]).shape == (2,)
+
+
+@pytest.mark.parametrize(
+    "tool",
+    [
+        lambda d: kp.add_kinect_noise(d, 1),
+        lambda d: _core.add_tof_artefacts(d, 1),
+        lambda d: _core.add_stereo_artefacts(d, 1),
+        lambda d: _core.calibrate_from_floor(d, kp.kinect_v2_camera()),
+        lambda d: _core.band_scan(d, kp.kinect_v2_camera()),
+    ],
+)
+def test_the_metre_tools_refuse_integer_and_double_depths_naming_the_dtype(tool: Any) -> None:
+    """A uint16 frame was taken as float32 silently: 1500 mm became 1500 m. A float64 one is not narrowed."""
+    with pytest.raises(TypeError, match=r"^depth: a uint16 array: expected float32 metres .* / 1000"):
+        tool(np.full((424, 512), 1500, np.uint16))
+    with pytest.raises(TypeError, match=r"^depth: a float64 array: expected float32 metres"):
+        tool(np.full((424, 512), 1.5))
+    scene = kp.render_scene(kp.kinect_v2_camera(), 1.0, 0.3, 0.0)["depth"]
+    tool(np.ascontiguousarray(scene[:, ::-1]))  # float32 metres, any layout
 
 
 def test_a_compressed_depth_header_with_a_negative_quantisation_is_refused() -> None:
