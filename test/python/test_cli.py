@@ -193,14 +193,47 @@ def test_a_contradiction_or_an_option_without_its_work_is_refused(
     f.write_bytes(b"")
     cases = [
         (["curve", str(f), "--from-model", "0.0015", "0.0019"], "--from-model fits no frames: give it or frames"),
-        (["curve", "--from-model", "0.0015", "0.0019", "--compare-plot", "c.png"], "it needs --compare"),
         (["quality", "--frames", "1", "--quiet", "--real-frames", str(tmp_path)], "no depth/*.png in it"),
-        (["quality", "--frames", "1", "--quiet", "--param", "range_max=3"], "--param: for --bag only"),
+        (["fleet", "--bench", str(f)], "--bench replays synthetic recordings of its own: give it or IN..., not both"),
     ]
     for args, says in cases:
         assert main(args) == 1
         assert says in capsys.readouterr().err
     assert not (tmp_path / "c.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["curve", "--from-model", "0.0015", "0.0019", "--compare-plot", "c.png"], "--compare-plot: needs --compare"),
+        (["curve", "--from-model", "0.0015", "0.0019", "--compare-frames", "3"], "--compare-frames: needs --compare"),
+        (["quality", "--frames", "1", "--param", "range_max=3"], "--param: needs --bag"),
+        (["quality", "--intrinsics", "1", "1", "1", "1"], "--intrinsics: needs --bag"),
+        (["quality", "--bag", "x.bag", "--frames", "3"], "--frames: not with --bag"),
+        (["quality", "--bag", "x.bag", "--enc", "8UC1"], "--encoding: not with --bag"),  # an abbreviation too
+        (["quality", "--bag", "x.bag", "--real-frames=/tmp"], "--real-frames: not with --bag"),
+        (["fleet", "--bench-frames", "3"], "--bench-frames: needs --bench"),
+        (["fleet", "--bench", "--workers", "2"], "--workers: not with --bench"),
+        (["fleet", "--bench", "-o", "out"], "-o/--output: not with --bench"),
+    ],
+)
+def test_an_option_its_mode_would_ignore_is_refused(
+    args: list[str], says: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Each was ignored with exit 0: the command did less than asked (quality --bag scored no --frames, fleet
+    --bench measured 4 recordings when told 2 workers). Told before any work, as the parser's error (exit 2)."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert exc.value.code == 2
+    assert f"argument {says} (it would be ignored)" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+
+
+def test_an_option_in_its_mode_or_at_its_default_is_taken(capsys: pytest.CaptureFixture[str]) -> None:
+    """The check reads what was given, not the values: the default given by hand in the mode is fine."""
+    assert main(["curve", "--from-model", "0.0015", "0.0019", "--compare", "--compare-frames", "1"]) == 0
+    assert "on 1 generated noisy frames" in capsys.readouterr().out
 
 
 def test_an_empty_value_that_means_none_or_is_the_default_is_let_be() -> None:

@@ -25,7 +25,16 @@ from . import (
     soak,
     synth,
 )
-from ._common import COMMAND, Formatter, ToolError, join_intrinsics, parse_params, refuse_empty
+from ._common import (
+    COMMAND,
+    Formatter,
+    ToolError,
+    given_dests,
+    join_intrinsics,
+    parse_params,
+    refuse_empty,
+    refuse_unused,
+)
 
 COMMANDS: tuple[ModuleType, ...] = (
     demo,
@@ -78,8 +87,11 @@ def _message(exc: BaseException) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser, commands = _parsers()
-    args = parser.parse_args(join_intrinsics(sys.argv[1:] if argv is None else list(argv)))
+    argv = join_intrinsics(sys.argv[1:] if argv is None else list(argv))
+    args = parser.parse_args(argv)
     refuse_empty(commands[args.command], args)
+    again, again_commands = _parsers()
+    refuse_unused(commands[args.command], args, given_dests(again, argv, again_commands[args.command]))
     try:
         return int(args.func(args))
     except (ToolError, ValueError, OSError) as exc:

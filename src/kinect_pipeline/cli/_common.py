@@ -90,6 +90,32 @@ def refuse_empty(parser: argparse.ArgumentParser, args: argparse.Namespace) -> N
             parser.error(f"argument {name}: an empty value: expected {action.metavar or action.dest.upper()}")
 
 
+def only_with(parser: argparse.ArgumentParser, mode: str, *options: str, absent: bool = False) -> None:
+    """Marks options that mean something only with the option MODE (absent: only without it): refuse_unused refuses
+    them otherwise. Before, such an option was ignored and the command did less than asked, with exit 0."""
+    for o in options:
+        parser._option_string_actions[o].only_with = (mode, absent)  # type: ignore[attr-defined]
+
+
+def given_dests(parser: argparse.ArgumentParser, argv: list[str], command: argparse.ArgumentParser) -> set[str]:
+    """The options of COMMAND (a subparser of PARSER) given on ARGV: parsed again with every default suppressed
+    (argparse cannot tell a default from the same value given)."""
+    for action in command._actions:
+        action.default = argparse.SUPPRESS
+    return set(vars(parser.parse_args(argv)))
+
+
+def refuse_unused(parser: argparse.ArgumentParser, args: argparse.Namespace, given: set[str]) -> None:
+    """An option marked by only_with and given where its mode says it is ignored: the parser's error (exit 2)."""
+    for action in parser._actions:
+        mode, absent = getattr(action, "only_with", (None, False))
+        if mode is None or action.dest not in given:
+            continue
+        if bool(getattr(args, parser._option_string_actions[mode].dest)) == absent:
+            name = "/".join(action.option_strings)
+            parser.error(f"argument {name}: {'not with' if absent else 'needs'} {mode} (it would be ignored)")
+
+
 def add_quiet(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar (default: a bar with frames/s on stderr)")
 

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ._common import ToolError, add_frames, check, count, frame_files, frames_camera, named, number
+from ._common import ToolError, add_frames, check, count, frame_files, frames_camera, named, number, only_with
 
 if TYPE_CHECKING:
     from ..tools.curve import CurveFit
@@ -49,6 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--compare-plot", help="with --compare: write a PNG of the curves and what they remove (default: none)"
     )
+    only_with(p, "--compare", "--compare-frames", "--compare-plot")
 
 
 def _fit(args: argparse.Namespace) -> CurveFit:
@@ -78,8 +79,6 @@ def run(args: argparse.Namespace) -> int:
 
     if args.from_model and args.files:
         raise ToolError(f"--from-model fits no frames: give it or frames, not both (got {' '.join(args.files)})")
-    if args.compare_plot and not args.compare:
-        raise ToolError("--compare-plot plots the comparison: it needs --compare")
     outputs = [named("-o", args.output), named("--plot", args.plot), named("--compare-plot", args.compare_plot)]
     check([*map(Path, args.files), *frame_files(args.files)], outputs)
     try:

@@ -18,6 +18,7 @@ from ._common import (
     check,
     count,
     number,
+    only_with,
     parse_params,
     with_sensor_model,
 )
@@ -111,6 +112,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--bench-repeat", type=count(hi=100), default=2, help="--bench: rounds, the best of each shown [rounds]"
     )
+    only_with(p, "--bench", "--bench-recordings", "--bench-frames", "--bench-repeat")
+    # --bench replays synthetic recordings of its own with the default options: the rest would be ignored
+    rest = [a.option_strings[-1] for a in p._actions if a.option_strings and a.dest not in ("help", "quiet")]
+    only_with(p, "--bench", *[o for o in rest if not o.startswith("--bench")], absent=True)
     add_quiet(p)
 
 
@@ -144,14 +149,14 @@ def run(args: argparse.Namespace) -> int:
     if args.bench:
         from ..tools.fleet_bench import bench
 
+        if args.inputs:
+            raise ToolError(
+                f"--bench replays synthetic recordings of its own: give it or IN..., not both (got {args.inputs})"
+            )
         print(bench(args.bench_recordings, args.bench_frames, args.bench_repeat))
         return 0
     if not args.inputs or not args.output:
         raise ToolError("expected IN... -o OUT (or --bench)")
-    if args.workers is not None and args.workers < 1:
-        raise ToolError(f"--workers {args.workers}: expected >= 1")
-    if args.threads < 0:
-        raise ToolError(f"--threads {args.threads}: expected >= 0 (0: OpenMP's default)")
     configs = configurations(args)
     replay = bag_options(args, pose_fallback=args.pose_fallback, skip_bad=args.skip_bad)
     opts = FleetOptions(

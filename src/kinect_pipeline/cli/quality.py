@@ -4,7 +4,16 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import ToolError, add_intrinsics, add_param, add_quiet, add_sensor_model, count, empty_means_none
+from ._common import (
+    ToolError,
+    add_intrinsics,
+    add_param,
+    add_quiet,
+    add_sensor_model,
+    count,
+    empty_means_none,
+    only_with,
+)
 
 NAME = "quality"
 HELP = "quality table per pitch condition and mode vs baselines (ground truth); --bag: a bag's replay vs its truth"
@@ -32,15 +41,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     empty_means_none(real)
     add_quiet(p)
-
-
-BAG_ONLY = {
-    "--param": "param",
-    "--intrinsics": "intrinsics",
-    "--sensor-model": "sensor_model",
-    "--depth-topic": "depth_topic",
-    "--info-topic": "info_topic",
-}
+    # the rendered tables compare fixed configurations; the bag's replay is one recording
+    only_with(p, "--bag", "--param", "--intrinsics", "--sensor-model", "--depth-topic", "--info-topic")
+    only_with(p, "--bag", "--frames", "--encoding", "--real-frames", absent=True)
 
 
 def _default_real_frames() -> str:
@@ -56,9 +59,6 @@ def run(args: argparse.Namespace) -> int:
 
     if args.bag:
         return _run_bag(args)
-    given = [o for o, v in BAG_ONLY.items() if getattr(args, v) is not None]
-    if given:  # the rendered tables compare fixed configurations: these would be ignored
-        raise ToolError(f"{', '.join(given)}: for --bag only (the rendered tables use fixed configurations)")
     _check_real_frames(args.real_frames)
     rows = evaluate(frames=args.frames, encoding=args.encoding, show_progress=not args.quiet)
     print(
