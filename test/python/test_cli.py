@@ -215,6 +215,8 @@ def test_a_contradiction_or_an_option_without_its_work_is_refused(
         (["fleet", "--bench-frames", "3"], "--bench-frames: needs --bench"),
         (["fleet", "--bench", "--workers", "2"], "--workers: not with --bench"),
         (["fleet", "--bench", "-o", "out"], "-o/--output: not with --bench"),
+        (["calibrate", "f.png", "--base-frame-height", "0.3"], "--base-frame-height: needs --bag"),
+        (["calibrate", "--bag", "x.bag", "--depth-scale", "0.0002"], "--depth-scale: not with --bag"),
     ],
 )
 def test_an_option_its_mode_would_ignore_is_refused(

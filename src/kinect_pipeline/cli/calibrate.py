@@ -8,7 +8,18 @@ import math
 import sys
 from pathlib import Path
 
-from ._common import ToolError, add_frames, check, frame_files, frames_camera, intrinsics_of, named, number, warn
+from ._common import (
+    ToolError,
+    add_frames,
+    check,
+    frame_files,
+    frames_camera,
+    intrinsics_of,
+    named,
+    number,
+    only_with,
+    warn,
+)
 from .replay import add_bag_topics
 
 NAME = "calibrate"
@@ -40,6 +51,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--json", action="store_true", help="print JSON: height [m], pitch, roll [rad], ... (default: text)")
     p.add_argument("--optical-frame", default="kinect2_depth_optical_frame", help="child frame of the static tf line")
+    # frames give a static tf line of base frame -> optical frame; a bag's frames are read as REP 118 says
+    only_with(p, "--bag", "--depth-topic", "--info-topic", "--base-frame-height")
+    only_with(p, "--bag", "--depth-scale", "--optical-frame", absent=True)
 
 
 def run(args: argparse.Namespace) -> int:
