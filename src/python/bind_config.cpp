@@ -97,7 +97,12 @@ void setFieldValue(Config& c, const ConfigField& f, const py::handle& v)
       c.*f.real = py::cast<double>(v);
       return;
     case FieldKind::kInteger:
-      c.*f.integer = py::cast<int>(v);
+      if (py::isinstance<py::bool_>(v))
+        throw py::cast_error();  // True was taken as 1
+      if (py::isinstance<py::int_>(v))
+        f.setNumber(c, py::cast<double>(v));  // beyond int's range: named with the field's range, not as a type
+      else
+        c.*f.integer = py::cast<int>(v);
       return;
     case FieldKind::kFlag:
       c.*f.flag = flagOf(v, std::string("Config.") + f.name);  // None or 0.5 were taken for their truth

@@ -133,5 +133,8 @@ TEST(ConfigFields, EveryNumberOutsideItsRangeIsNamedAndEveryTextRoundTrips)
   expectInvalid([] { configField("sensor_hieght"); }, {"sensor_hieght", "sensor_height"});
   Config c;
   expectInvalid([&] { configField("open_kernel_size").setNumber(c, 2.5); }, {"open_kernel_size", "2.5", "whole"});
+  // An integer its type cannot hold is named with the field's range (it said "a whole number" of a whole number).
+  expectInvalid([&] { configField("open_kernel_size").setNumber(c, 0x1p40); },
+                {"open_kernel_size = 1.09951e+12", "an integer in [0, 31]"});
   expectInvalid([&] { configField("geometry").setText(c, "exakt"); }, {"exakt", "'exact'"});
 }

@@ -236,6 +236,14 @@ def test_bad_input_is_refused_clearly(cam: kp.Camera, depth: object, exc: type, 
         ({"threshold_curve": [(2.0, 0.1), (1.0, 0.2)]}, ValueError, "increasing"),
         ({"threshold_curve": "1:0.1, 2:oops"}, ValueError, "oops"),
         ({"no_such_field": 1}, TypeError, "no_such_field"),
+        # an int its C++ field cannot hold was "expected an integer"; True was taken as 1
+        (
+            {"open_kernel_size": 2**40},
+            ValueError,
+            r"open_kernel_size = 1\.09951e\+12: expected an integer in \[0, 31\]",
+        ),
+        ({"open_kernel_size": -(2**70)}, ValueError, r"open_kernel_size = -1\.18059e\+21: expected an integer in"),
+        ({"open_kernel_size": True}, TypeError, r"open_kernel_size = True \(bool\): expected an integer"),
     ],
 )
 def test_bad_config_is_refused_naming_the_field(kwargs: dict, exc: type, match: str) -> None:
@@ -254,6 +262,13 @@ def test_bad_config_is_refused_naming_the_field(kwargs: dict, exc: type, match: 
 def test_bad_camera_is_refused(args: tuple, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         kp.Camera(*args)
+
+
+def test_a_field_of_view_giving_no_usable_focal_length_is_named() -> None:
+    """It named the fx it gave, not the hfov the caller passed."""
+    with pytest.raises(ValueError, match=r"^Camera\.from_fov: hfov = 1e-09, vfov = 0\.5 rad over 512x424 px: .*fx"):
+        kp.Camera.from_fov(512, 424, 1e-9, 0.5)
+    assert kp.Camera.from_fov(512, 424, 1.2, 1.0).fx == pytest.approx(256 / math.tan(0.6))
 
 
 def test_confidence_of_a_beam_that_appears(cam: kp.Camera) -> None:

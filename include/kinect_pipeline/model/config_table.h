@@ -47,7 +47,10 @@ struct ConfigField
 
   /** The value as a number (kReal, kInteger, kFlag). @throw std::logic_error for kChoice / kCurve. */
   double number(const Config& c) const;
-  /** Sets a number (kReal, kInteger: must be a whole number, kFlag: 0 or 1). @throw std::invalid_argument. */
+  /**
+   * Sets a number (kReal, kInteger: a whole number, kFlag: 0 or 1). @throw std::invalid_argument, with the range of
+   * rangeProblem for an integer that its type cannot hold
+   */
   void setNumber(Config& c, double v) const;
   /** The value as its parameter text: a choice's name, the curve as "d:t, ...", a number in full precision. */
   std::string text(const Config& c) const;
@@ -55,6 +58,8 @@ struct ConfigField
   void setText(Config& c, const std::string& v) const;
   /** "Config.<name> = <v>: expected ..." when a kReal / kInteger value lies outside [lo, hi], else "". */
   std::string rangeProblem(const Config& c) const;
+  /** The same for a value @p v given for this field (one too large for its type, say). */
+  std::string rangeProblem(double v) const;
 };
 
 /** Every field of Config, in the order of model/config.h. */

@@ -45,8 +45,18 @@ Camera Camera::fromFov(int width, int height, double hfov, double vfov)
     }
   }
   // Edge to edge: the outer pixel edges lie at -0.5 and width - 0.5 around the centre (width - 1) / 2.
-  return Camera(width, height, 0.5 * width / std::tan(0.5 * hfov), 0.5 * height / std::tan(0.5 * vfov),
-                0.5 * (width - 1), 0.5 * (height - 1));
+  try
+  {
+    return Camera(width, height, 0.5 * width / std::tan(0.5 * hfov), 0.5 * height / std::tan(0.5 * vfov),
+                  0.5 * (width - 1), 0.5 * (height - 1));
+  }
+  catch (const std::invalid_argument& e)  // a focal length out of range: say which field of view gave it
+  {
+    std::ostringstream s;
+    s << "Camera.from_fov: hfov = " << hfov << ", vfov = " << vfov << " rad over " << width << "x" << height
+      << " px: " << e.what();
+    throw std::invalid_argument(s.str());
+  }
 }
 
 double Camera::hfov() const

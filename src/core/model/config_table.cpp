@@ -162,8 +162,10 @@ void ConfigField::setNumber(Config& c, double v) const
       c.*real = v;
       return;
     case FieldKind::kInteger:
-      if (!(std::fabs(v) <= std::numeric_limits<int>::max() && v == std::floor(v)))
+      if (!(v == std::floor(v)))
         throw std::invalid_argument(s.str() + "a whole number");
+      if (!(std::fabs(v) <= std::numeric_limits<int>::max()))
+        throw std::invalid_argument(rangeProblem(v));
       c.*integer = static_cast<int>(v);
       return;
     case FieldKind::kFlag:
@@ -217,7 +219,11 @@ std::string ConfigField::rangeProblem(const Config& c) const
 {
   if (kind != FieldKind::kReal && kind != FieldKind::kInteger)
     return "";
-  const double v = number(c);
+  return rangeProblem(number(c));
+}
+
+std::string ConfigField::rangeProblem(double v) const
+{
   if (std::isfinite(v) && v >= lo && v <= hi)
     return "";
   std::ostringstream s;
