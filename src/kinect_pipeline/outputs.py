@@ -93,6 +93,20 @@ def check_outputs(inputs: Iterable[PathLike], outputs: Iterable[PathLike], folde
         parent = out.path.parent
         if not parent.is_dir() and not any(_inside(out.path, d.path) or _same(parent, d.path) for d in dirs):
             raise OutputError(f"output {out}: its folder {parent} does not exist")
+        if parent.is_dir():
+            _probe(out, parent)
+
+
+def _probe(out: Named, folder: Path) -> None:
+    """A folder that takes no new file (read-only, /proc, no permission) is told before any work, by making and
+    removing a hidden file there (as root, os.access says yes even for /proc): before, it was found after the
+    work, when the output was written."""
+    try:
+        fd, name = tempfile.mkstemp(dir=folder, prefix=".kinect-pipeline-probe-")
+    except OSError as exc:
+        raise OutputError(f"output {out}: cannot make a file in {folder} ({exc.strerror or exc})") from exc
+    os.close(fd)
+    os.unlink(name)
 
 
 def check_rewrite(folder: PathLike, names: Iterable[str], markers: tuple[str, ...], what: str) -> None:

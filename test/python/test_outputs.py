@@ -266,7 +266,18 @@ def test_a_folder_that_takes_no_file_is_named_as_the_user_named_the_output() -> 
         pass
     assert ".x.yaml." not in str(e.value)
     r = cli("curve", "--from-model", "0.0015", "0.0019", "-o", "/proc/x.yaml")
-    assert r.returncode == 1 and r.stderr.strip().endswith("cannot write /proc/x.yaml: No such file or directory")
+    assert r.returncode == 1 and r.stderr.strip().endswith(
+        "output -o /proc/x.yaml: cannot make a file in /proc (No such file or directory)"
+    )
+
+
+def test_a_folder_that_takes_no_file_is_told_before_the_work(tmp_path: Path) -> None:
+    """curve --compare-plot /proc/x.png compared the curves on generated frames, then failed writing the plot."""
+    r = cli("curve", "--from-model", "0.0015", "0.0019", "--compare", "--compare-plot", "/proc/x.png")
+    assert r.returncode == 1 and r.stdout == "", r.stdout
+    assert "output --compare-plot /proc/x.png: cannot make a file in /proc" in r.stderr
+    check_outputs([], [tmp_path / "a.png"])  # a folder that takes files: the probe leaves nothing behind
+    assert not list(tmp_path.iterdir())
 
 
 def test_a_folder_of_the_users_files_is_not_written_over_but_an_earlier_run_is(bag: Path, tmp_path: Path) -> None:
