@@ -114,6 +114,26 @@ def test_bad_files_are_named(tmp_path: Path, capsys: pytest.CaptureFixture[str])
     assert rc == 1 and "single-channel" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("command", ["calibrate", "curve"])
+def test_frames_in_other_units_than_read_are_refused_naming_the_scale(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: str
+) -> None:
+    """A wrong --depth-scale gave "no floor found" (1e9) or a floor at a scaled height; float millimetres too."""
+    mm = tmp_path / "mm.png"
+    cv2.imwrite(str(mm), np.full((48, 64), 1500, np.uint16))
+    npy = tmp_path / "mm.npy"
+    np.save(npy, np.full((48, 64), 1500.0, np.float32))
+    for frame, scale, says in (
+        (mm, "1e9", "a median depth of 1.5e+12 m (uint16 at --depth-scale 1e+09 m): expected 0.05 to 100 m"),
+        (mm, "1e-6", "a median depth of 0.0015 m (uint16 at --depth-scale 1e-06 m)"),
+        (npy, "0.001", "a median depth of 1.5e+03 m (float32 read as metres)"),
+    ):
+        assert main([command, str(frame), "--intrinsics", *INTR, "--depth-scale", scale]) == 1
+        assert says in capsys.readouterr().err
+    assert main(["calibrate", str(mm), "--intrinsics", *INTR, "--json"]) == 1  # 1.5 m: read, no floor in it
+    assert "no floor found" in capsys.readouterr().err
+
+
 # -- calibrate --bag: the tf-provided pose of a moving base against the floor seen in each frame ----------------
 
 

@@ -90,7 +90,29 @@ def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) 
             raise CalibrationError(f"{path}: not an image OpenCV can read")
     if arr.ndim != 2:
         raise CalibrationError(f"{path}: shape {arr.shape}: expected a single-channel depth image")
-    return depth_metres(arr, depth_scale, max_depth, str(path))
+    metres = depth_metres(arr, depth_scale, max_depth, str(path))
+    _check_plausible(metres, arr.dtype, depth_scale, path)
+    return metres
+
+
+PLAUSIBLE_MEDIAN = (0.05, 100.0)  # [m]: no depth camera sees most of its frame nearer or farther
+
+
+def _check_plausible(metres: np.ndarray, dtype: np.dtype, depth_scale: float, path: Path) -> None:
+    """A frame whose valid pixels lie mostly nearer than 5 cm or beyond 100 m is in other units than its reading
+    says (a wrong --depth-scale, a float file in millimetres): refused, naming them. Before, it gave "no floor
+    found" or a floor at a scaled height."""
+    valid = metres[metres > 0]
+    if valid.size == 0:
+        return
+    med = float(np.median(valid))
+    if PLAUSIBLE_MEDIAN[0] <= med <= PLAUSIBLE_MEDIAN[1]:
+        return
+    how = f"uint16 at --depth-scale {depth_scale:g} m" if dtype == np.uint16 else f"{dtype} read as metres"
+    raise CalibrationError(
+        f"{path}: a median depth of {med:.3g} m ({how}): expected {PLAUSIBLE_MEDIAN[0]:g} to {PLAUSIBLE_MEDIAN[1]:g} m "
+        "for a depth camera (16-bit frames in mm: 0.001; TUM and slambook2: 0.0002)"
+    )
 
 
 def depth_metres(
