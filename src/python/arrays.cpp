@@ -163,9 +163,9 @@ FloatImage metresImage(const py::handle& obj, const char* what)
       throw py::type_error(std::string(what) + ": a " + name +
                            " array: expected float32 metres (an integer depth is in sensor units: for millimetres "
                            "pass depth.astype(np.float32) / 1000)");
-    if (dt.itemsize() != 4)
+    if (dt.itemsize() != 4)  // float64 is not narrowed silently; float16 is widened by the caller too
       throw py::type_error(std::string(what) + ": a " + name +
-                           " array: expected float32 metres (no silent narrowing: pass depth.astype(np.float32))");
+                           " array: expected float32 metres (pass depth.astype(np.float32))");
   }
   auto a = FloatImage::ensure(obj);
   if (!a)
