@@ -274,6 +274,26 @@ def test_a_report_of_frames_without_one_depth_pixel_is_refused(
     assert not (tmp_path / "rep").exists()
 
 
+def test_a_report_option_its_input_would_ignore_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """report's mode is its input's kind: --depth-topic beside frames, --depth-scale beside a bag were ignored."""
+    import numpy as np
+
+    f = tmp_path / "f.npy"
+    np.save(f, np.ones((120, 160), np.float32))
+    bag = tmp_path / "x.bag"
+    bag.write_bytes(b"#ROSBAG V2.0\n")
+    for args, says in (
+        (
+            [str(f), "--intrinsics", "100,100,80,60", "--depth-topic", "/d"],
+            "--depth-topic: for a bag only, and the input is depth frames",
+        ),
+        ([str(bag), "--depth-scale", "0.0002"], "--depth-scale: for depth frames only, and the input is a bag"),
+    ):
+        assert main(["report", *args, "-o", str(tmp_path / "rep"), "--quiet"]) == 1
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "rep").exists()
+
+
 def test_a_pictures_folder_that_cannot_be_made_fails_before_the_work(capsys: pytest.CaptureFixture[str]) -> None:
     """cliff computed and printed its whole table, then failed on --pictures /proc/x."""
     assert main(["cliff", "--frames", "1", "--quiet", "--pictures", "/proc/x"]) == 1

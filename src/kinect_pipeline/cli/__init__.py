@@ -91,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     refuse_empty(commands[args.command], args)
     again, again_commands = _parsers()
-    refuse_unused(commands[args.command], args, given_dests(again, argv, again_commands[args.command]))
+    args.given = given_dests(again, argv, again_commands[args.command])  # for a mode set by the input (report)
+    refuse_unused(commands[args.command], args, args.given)
     try:
         return int(args.func(args))
     except (ToolError, ValueError, OSError) as exc:

@@ -39,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
 
     items, out = [Path(p) for p in args.input], Path(args.out)
     check(items, [Named(out / f, "-o") for f in FILES], [Named(out, "-o")])
+    _refuse_unused(args, is_frames(items))
     opts = bag_options(args)
     cam = None
     if is_frames(items):
@@ -54,3 +55,24 @@ def run(args: argparse.Namespace) -> int:
     for w in summary["warnings"]:
         warn(NAME, w)
     return 0
+
+
+BAG_ONLY = {
+    "--depth-topic": "depth_topic",
+    "--info-topic": "info_topic",
+    "--base-frame": "base_frame",
+    "--base-frame-height": "base_frame_height",
+}
+FRAMES_ONLY = {"--depth-scale": "depth_scale"}
+
+
+def _refuse_unused(args: argparse.Namespace, frames: bool) -> None:
+    """The input says the mode (a bag or depth frames): an option of the other mode, given, would be ignored."""
+    given = getattr(args, "given", set())
+    other = BAG_ONLY if frames else FRAMES_ONLY
+    ignored = [o for o, dest in other.items() if dest in given]
+    if ignored:
+        raise ToolError(
+            f"{', '.join(ignored)}: for {'a bag' if frames else 'depth frames'} only, and the input is "
+            f"{'depth frames' if frames else 'a bag'} (it would be ignored)"
+        )
