@@ -213,6 +213,63 @@ def _bag_with_infos(path: Path, infos: list[tuple[int, float]], fx: float = 365.
     w.close()
 
 
+def _bag_of_frames(path: Path, frames: list[tuple[str, np.ndarray, tuple[int, int]]]) -> None:
+    """A ROS 1 bag of depth images (encoding, pixels, camera_info's height and width), one a second from 10 s."""
+    w = BagWriter(path, "ros1")
+    T = w.types
+    c_img = w.add("/cam/depth/image_raw", "sensor_msgs/msg/Image")
+    c_info = w.add("/cam/depth/camera_info", "sensor_msgs/msg/CameraInfo")
+    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
+    for i, (encoding, px, (h, wd)) in enumerate(frames):
+        head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="cam")
+        img = T["sensor_msgs/msg/Image"](
+            header=head,
+            height=px.shape[0],
+            width=px.shape[1],
+            encoding=encoding,
+            is_bigendian=0,
+            step=px.strides[0],
+            data=px.view(np.uint8).reshape(-1),
+        )
+        w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
+        info = T["sensor_msgs/msg/CameraInfo"](
+            header=head,
+            height=h,
+            width=wd,
+            distortion_model="plumb_bob",
+            D=np.zeros(5),
+            K=np.array([365.0, 0, (wd - 1) / 2, 0, 365.0, (h - 1) / 2, 0, 0, 1.0]),
+            R=np.eye(3).reshape(-1),
+            P=np.zeros(12),
+            binning_x=0,
+            binning_y=0,
+            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+        )
+        w.write(c_info, (10 + i) * 10**9 + 1, w.encode(info, "sensor_msgs/msg/CameraInfo"))
+    w.close()
+
+
+def test_a_frame_the_core_refuses_is_skipped_named_and_the_rest_replayed(tmp_path: Path) -> None:
+    """A float32 frame in millimetres, or one of another size than its camera_info, ended the replay with the
+    core's ValueError (a traceback through the API, 'nothing written' by the CLI): the node drops such a frame."""
+    mm = np.full((424, 512), 2000, np.uint16)
+    good = ("16UC1", mm, (424, 512))
+    bag = tmp_path / "mixed.bag"
+    _bag_of_frames(bag, [good, ("32FC1", mm.astype(np.float32), (424, 512)), good, ("16UC1", mm, (480, 640)), good])
+    r = replay(bag, tmp_path / "out.bag", ReplayOptions(), show_progress=False)
+    assert r.processed == 3, r.problems
+    refused = [p for p in r.problems if "refused by the core" in p]
+    assert len(refused) == 1, r.problems
+    assert "at 11.000 s: refused by the core: depth: float32 with a median of 2000" in refused[0]
+    assert "at 13.000 s: the image is 512x424 but its camera_info on /cam/depth/camera_info is 640x480" in str(r.problems)
+    assert not any("static pose used" in p and "11.000" in p for p in r.problems)
+    from kinect_pipeline.evaluation.report import collect
+
+    pose = {"sensor_height": 1.0, "sensor_pitch": 0.3}
+    c = collect(bag, ReplayOptions(config=pose), show_progress=False)  # the report's: it stopped at the frame
+    assert len(c.frames) == 3 and "frame at 11.00 s: refused by the core: depth: float32" in str(c.problems)
+
+
 def test_no_camera_info_at_all_is_an_error_saying_why(tmp_path: Path) -> None:
     bag = tmp_path / "b.bag"
     _bag_with_infos(bag, [(11_000_000_000, 11.0)], fx=0.0)

@@ -296,7 +296,13 @@ class Cameras:
                 return self.intrinsics.camera(width, height), ""
             if self.infos is not None and self.infos.stamps:
                 info, note = self.infos.for_stamp(stamp(msg))
-                return camera_from_info(info), note
+                cam = camera_from_info(info)
+                if (cam.width, cam.height) != (width, height):  # the core would refuse the frame
+                    raise BagError(
+                        f"the image is {width}x{height} but its camera_info on {self.infos.topic} is "
+                        f"{cam.width}x{cam.height}: expected one size (binning and ROI are not applied)"
+                    )
+                return cam, note
             if self.sensor_model:
                 cam, self.warning = nominal_camera(self.sensor_model, width, height)
                 return cam, ""

@@ -71,13 +71,18 @@ class _Runner:
         self.camera: Any = None
         self.best = -1.0
 
-    def run(self, cam: Any, depth: np.ndarray, pose: tuple[float, float, float], name: str) -> tuple[Any, float]:
+    def run(self, cam: Any, depth: np.ndarray, pose: tuple[float, float, float], name: str) -> tuple[Any, Any] | None:
+        """The two results, or None where the core refuses the frame (said in the problems, as the node drops it)."""
         if self.pipe is None or repr(cam) != repr(self.camera):
             self.camera = cam
             self.pipe = _core.Pipeline(cam, _core.Config(**self.config))
             self.pipe_f = _core.Pipeline(cam, _core.Config(**{**self.config, "intensity_filter": True}))
-        res = self.pipe.process_pose(depth, *pose)
-        res_f = self.pipe_f.process_pose(depth, *pose)
+        try:
+            res = self.pipe.process_pose(depth, *pose)
+            res_f = self.pipe_f.process_pose(depth, *pose)
+        except ValueError as exc:  # float millimetres, say: one such frame does not end the report
+            self.out.problems.append(f"{name}: refused by the core: {exc}; frame skipped")
+            return None
         self.out.angle_min, self.out.angle_increment = res.angle_min, res.angle_increment
         score = (
             abs(pose[1]) + float((res.labels == _core.LABELS["kept"]).mean()) * 1e-3
@@ -135,14 +140,21 @@ def collect(bag_path: Path, opts: ReplayOptions, show_progress: bool = True, kee
                 xy = (0.0, 0.0, 0.0)
                 if given:
                     h, p, r = static.sensor_height, static.sensor_pitch, static.sensor_roll
-                    fallback += 1
                 else:
                     pose = _own_floor(depth, cam, static.max_depth, f"frame at {st:.3f} s", out)
                     if pose is None:
                         out.problems.append(f"{depth_topic} at {st:.3f} s: {exc}, and no floor in view; frame skipped")
                         continue
-                    (h, p, r), floor = pose, floor + 1
-            res, res_f = runner.run(cam, depth, (h, p, r), f"frame at {st:.2f} s")
+                    h, p, r = pose
+                without_tf = True
+            else:
+                without_tf = False
+            results = runner.run(cam, depth, (h, p, r), f"frame at {st:.2f} s")
+            if results is None:
+                continue
+            fallback += without_tf and given
+            floor += without_tf and not given
+            res, res_f = results
             rec = _record(st, (h, p, r), xy, res, res_f)
             rec.gt_scan = side["gt_scan"].get(st)
             gt = side["gt_labels"].get(st)
@@ -242,8 +254,11 @@ def collect_frames(
     for i, ((name, metres), pose) in enumerate(items):
         if pose is None:
             continue
-        res, res_f = runner.run(camera, metres, pose, Path(name).name)
-        out.frames.append(_record(float(i), pose, (0.0, 0.0, 0.0), res, res_f))
+        results = runner.run(camera, metres, pose, Path(name).name)
+        if results is not None:
+            out.frames.append(_record(float(i), pose, (0.0, 0.0, 0.0), *results))
+    if not out.frames:
+        raise CalibrationError(f"no frame could be processed: {'; '.join(out.problems[:3])}")
     return out
 
 

@@ -153,7 +153,7 @@ class _Frames:
 
     def process(self, img: Any, note: bool = True) -> Any:
         """The core's result for a depth message at the tf pose of its stamp, or None when the frame is skipped."""
-        at, report, opts = stamp(img), self.report, self.opts
+        at = stamp(img)
         try:
             depth = depth_array(img)
             cam = self._camera(img, depth, note)
@@ -164,33 +164,51 @@ class _Frames:
         if self.pipe is None:
             self.pipe = _core.Pipeline(cam, self.config)
         try:
-            q, tr = self.tf.lookup(opts.base_frame, img.header.frame_id, at, opts.tf_tolerance)
-            height, pitch, roll, _ = _core.pose_from_optical_transform((q, tr), opts.base_frame_height)
-            res = self.pipe.process_pose(depth, height, pitch, roll, stamp=at)
-            report.pose_from_tf += note
-        except LookupError as exc:
-            if opts.pose_fallback == "skip":
-                if note:
-                    report.skipped_no_pose += 1
-                self._note(at, f"{exc}; frame skipped", note)
-                return None
-            if note:
-                report.pose_fallback += 1
-                if report.pose_fallback == 1:
-                    self._note(at, f"{exc}; static pose used (and later)", note)
-                    if not any(k in opts.config for k in ("sensor_height", "sensor_pitch", "sensor_roll")):
-                        report.warnings.append(
-                            f"frames without tf (the first at {at:.3f} s) were processed at the Config's default pose "
-                            f"(height {self.config.sensor_height:g} m, pitch {self.config.sensor_pitch:g}, roll "
-                            f"{self.config.sensor_roll:g} rad), not this camera's: give it with --param sensor_height="
-                            "H --param sensor_pitch=P --param sensor_roll=R (calibrate --bag gives the floor's), or "
-                            "--pose-fallback skip"
-                        )
-            res = self.pipe.process(depth, stamp=at)
+            pose, why = self._pose(img, at, note)
+        except LookupError:
+            return None
+        try:
+            res = self.pipe.process(depth, stamp=at) if pose is None else self.pipe.process_pose(depth, *pose, stamp=at)
+        except ValueError as exc:  # the core refused it (its size against the camera_info's, float millimetres)
+            self._note(at, f"refused by the core: {exc}; frame skipped", note)
+            return None
+        if note:
+            self.report.pose_from_tf += pose is not None
+            self.report.pose_fallback += pose is None
+            if self.report.pose_fallback == 1 and pose is None:
+                self._fell_back(at, why)
         self.since += 1
         self.recent.append(img)
         self.states.append(self.pipe.floor_state)
         return res
+
+    def _pose(self, img: Any, at: float, note: bool) -> tuple[tuple[float, float, float] | None, str]:
+        """The tf pose (height, pitch, roll) of the frame, or None and why for the static one of the Config; raises
+        LookupError where there is none and the frame is to be skipped (--pose-fallback skip)."""
+        opts = self.opts
+        try:
+            q, tr = self.tf.lookup(opts.base_frame, img.header.frame_id, at, opts.tf_tolerance)
+            height, pitch, roll, _ = _core.pose_from_optical_transform((q, tr), opts.base_frame_height)
+            return (height, pitch, roll), ""
+        except LookupError as exc:
+            if opts.pose_fallback == "skip":
+                if note:
+                    self.report.skipped_no_pose += 1
+                self._note(at, f"{exc}; frame skipped", note)
+                raise
+            return None, str(exc)
+
+    def _fell_back(self, at: float, why: str) -> None:
+        """The first frame processed at the static pose: said once, with a warning where that pose is a guess."""
+        self._note(at, f"{why}; static pose used (and later)", True)
+        if not any(k in self.opts.config for k in ("sensor_height", "sensor_pitch", "sensor_roll")):
+            self.report.warnings.append(
+                f"frames without tf (the first at {at:.3f} s) were processed at the Config's default pose "
+                f"(height {self.config.sensor_height:g} m, pitch {self.config.sensor_pitch:g}, roll "
+                f"{self.config.sensor_roll:g} rad), not this camera's: give it with --param sensor_height="
+                "H --param sensor_pitch=P --param sensor_roll=R (calibrate --bag gives the floor's), or "
+                "--pose-fallback skip"
+            )
 
     def processed_before(self, img: Any, floor_state: tuple[Any, ...] | None) -> None:
         """A frame whose outputs an earlier run wrote: follow the state without processing it."""
