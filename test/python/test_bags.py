@@ -261,8 +261,10 @@ def test_a_frame_the_core_refuses_is_skipped_named_and_the_rest_replayed(tmp_pat
     refused = [p for p in r.problems if "refused by the core" in p]
     assert len(refused) == 1, r.problems
     assert "at 11.000 s: refused by the core: depth: float32 with a median of 2000" in refused[0]
-    assert "at 13.000 s: the image is 512x424 but its camera_info on /cam/depth/camera_info is 640x480" in str(r.problems)
+    size = "at 13.000 s: the image is 512x424 but its camera_info on /cam/depth/camera_info is 640x480"
+    assert size in str(r.problems)
     assert not any("static pose used" in p and "11.000" in p for p in r.problems)
+
     from kinect_pipeline.evaluation.report import collect
 
     pose = {"sensor_height": 1.0, "sensor_pitch": 0.3}

@@ -68,7 +68,7 @@ FRAMES_ONLY = {"--depth-scale": "depth_scale"}
 
 def _refuse_unused(args: argparse.Namespace, frames: bool) -> None:
     """The input says the mode (a bag or depth frames): an option of the other mode, given, would be ignored."""
-    given = getattr(args, "given", set())
+    given: set[str] = getattr(args, "given", set())
     other = BAG_ONLY if frames else FRAMES_ONLY
     ignored = [o for o, dest in other.items() if dest in given]
     if ignored:
