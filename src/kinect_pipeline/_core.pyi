@@ -173,6 +173,7 @@ def default_threshold_curve() -> str: ...
 
 #: Values of Result.labels by name.
 LABELS: dict[str, int]
+MILLIMETRE_MEDIAN: float
 CONFIG_FIELDS: list[dict[str, Any]]
 
 def sensor_models() -> list[str]: ...

@@ -18,6 +18,7 @@
 #include "bind.h"
 #include "kinect_pipeline/model/camera.h"
 #include "kinect_pipeline/model/config.h"
+#include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/model/pose.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/simd.h"
@@ -244,6 +245,7 @@ void bindResult(py::module_& m)
   for (int k = 0; k < kNumLabels; ++k)
     labels[kLabelNames[k]] = k;
   m.attr("LABELS") = labels;
+  m.attr("MILLIMETRE_MEDIAN") = kMillimetreMedian;  // [m] the median depth above which metres are not metres
 }
 
 /** Predicted depth per pixel [m] of the floor or the ceiling plane at the last frame's pose. */

@@ -209,6 +209,7 @@ def test_a_contradiction_or_an_option_without_its_work_is_refused(
         (["curve", "--from-model", "0.0015", "0.0019", "--compare-frames", "3"], "--compare-frames: needs --compare"),
         (["quality", "--frames", "1", "--param", "range_max=3"], "--param: needs --bag"),
         (["quality", "--intrinsics", "1", "1", "1", "1"], "--intrinsics: needs --bag"),
+        (["quality", "--base-frame", "base_link"], "--base-frame: needs --bag"),
         (["quality", "--bag", "x.bag", "--frames", "3"], "--frames: not with --bag"),
         (["quality", "--bag", "x.bag", "--enc", "8UC1"], "--encoding: not with --bag"),  # an abbreviation too
         (["quality", "--bag", "x.bag", "--real-frames=/tmp"], "--real-frames: not with --bag"),

@@ -77,6 +77,12 @@ struct DepthTraits<float>
 };
 
 /**
+ * Depth in 32FC1 is metres: an image whose valid pixels have a median above this [m] is plainly in other units
+ * (millimetres); the pipeline refuses it, and the tools refuse depth frames read so (Python: MILLIMETRE_MEDIAN).
+ */
+constexpr float kMillimetreMedian = 100.0f;
+
+/**
  * The depth [m] a pixel v of a cleaned image stands for: +Inf where it was removed (DepthTraits<T>::removed()),
  * else v * scale. Select-free, for the loops that vectorise.
  */

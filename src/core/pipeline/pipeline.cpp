@@ -14,6 +14,7 @@
 #include <stdexcept>
 
 #include "base/simd.h"
+#include "kinect_pipeline/model/encoding.h"
 #include "pipeline/frame_work.h"
 #include "stages/frame_common.h"
 #include "stages/labels/by_value.h"
@@ -189,9 +190,6 @@ void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binne
 }
 
 constexpr double kHalfPi = 1.57079632679489661923;
-
-/** Depth in 32FC1 is metres: an image whose valid pixels have a median above this [m] is plainly millimetres. */
-constexpr float kMillimetreMedian = 100.0f;
 
 /** @throw std::invalid_argument for a CV_32FC1 image that is plainly millimetres: the median of its valid pixels,
  *  on a subsample of about 4096, above kMillimetreMedian. */

@@ -42,7 +42,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     empty_means_none(real)
     add_quiet(p)
     # the rendered tables compare fixed configurations; the bag's replay is one recording
-    only_with(p, "--bag", "--param", "--intrinsics", "--sensor-model", "--depth-topic", "--info-topic")
+    bag_topics = ("--depth-topic", "--info-topic", "--base-frame", "--base-frame-height")
+    only_with(p, "--bag", "--param", "--intrinsics", "--sensor-model", *bag_topics)
     only_with(p, "--bag", "--frames", "--encoding", "--real-frames", absent=True)
 
 

@@ -57,20 +57,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-BAG_ONLY = {
-    "--depth-topic": "depth_topic",
-    "--info-topic": "info_topic",
-    "--base-frame": "base_frame",
-    "--base-frame-height": "base_frame_height",
-}
-FRAMES_ONLY = {"--depth-scale": "depth_scale"}
+BAG_ONLY = ("--depth-topic", "--info-topic", "--base-frame", "--base-frame-height")
+FRAMES_ONLY = ("--depth-scale",)
 
 
 def _refuse_unused(args: argparse.Namespace, frames: bool) -> None:
-    """The input says the mode (a bag or depth frames): an option of the other mode, given, would be ignored."""
+    """The input says the mode (a bag or depth frames): an option of the other mode, given, would be ignored (the
+    options of a mode set by another option are only_with's)."""
     given: set[str] = getattr(args, "given", set())
-    other = BAG_ONLY if frames else FRAMES_ONLY
-    ignored = [o for o, dest in other.items() if dest in given]
+    ignored = [o for o in (BAG_ONLY if frames else FRAMES_ONLY) if o[2:].replace("-", "_") in given]  # argparse's dest
     if ignored:
         raise ToolError(
             f"{', '.join(ignored)}: for {'a bag' if frames else 'depth frames'} only, and the input is "

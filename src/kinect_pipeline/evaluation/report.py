@@ -152,8 +152,10 @@ def collect(bag_path: Path, opts: ReplayOptions, show_progress: bool = True, kee
             results = runner.run(cam, depth, (h, p, r), f"frame at {st:.2f} s")
             if results is None:
                 continue
-            fallback += without_tf and given
-            floor += without_tf and not given
+            if without_tf and given:
+                fallback += 1
+            elif without_tf:
+                floor += 1
             res, res_f = results
             rec = _record(st, (h, p, r), xy, res, res_f)
             rec.gt_scan = side["gt_scan"].get(st)

@@ -95,7 +95,8 @@ def load_depth(path: Path, depth_scale: float = 0.001, max_depth: float = 12.0) 
     return metres
 
 
-PLAUSIBLE_MEDIAN = (0.05, 100.0)  # [m]: no depth camera sees most of its frame nearer or farther
+#: [m]: no depth camera sees most of its frame nearer; farther than the core's bound is other units than metres
+PLAUSIBLE_MEDIAN = (0.05, _core.MILLIMETRE_MEDIAN)
 
 
 def _check_plausible(metres: np.ndarray, dtype: np.dtype, depth_scale: float, path: Path) -> None:
