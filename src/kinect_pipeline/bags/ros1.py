@@ -14,7 +14,7 @@ import bz2
 import mmap
 import struct
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -151,6 +151,28 @@ def _chunk_topics(counts: dict[int, int], topics: dict[int, str]) -> str | None:
     return ", ".join(names) if names else None
 
 
+@dataclass
+class _Scan:
+    """What a walk over a bag has found so far: connections, their topics, the index's message counts per chunk and
+    the last intact message (byte offset, topic)."""
+
+    conns: dict[int, dict[bytes, bytes]] = field(default_factory=dict)
+    conn_topic: dict[int, str] = field(default_factory=dict)
+    chunk_counts: dict[int, dict[int, int]] = field(default_factory=dict)  # from the index's chunk infos
+    last: tuple[int, str] | None = None
+
+    def add_conn(self, fields: dict[bytes, bytes], data: dict[bytes, bytes]) -> None:
+        from rosbags.rosbag1.reader import normalize
+
+        cid = _u32(fields[b"conn"], 0)
+        self.conn_topic[cid] = normalize(fields[b"topic"].decode())
+        self.conns.setdefault(cid, data)
+
+    def after(self) -> str:
+        """Where the last intact message lies, for a damage's message."""
+        return f"; the last intact message before it: {self.last[1]} at byte {self.last[0]}" if self.last else ""
+
+
 class Bag:
     """A ROS 1 bag opened for reading: ``connections`` (rosbags ``Connection`` tuples) and its messages in time order.
 
@@ -213,116 +235,17 @@ class Bag:
 
     def _open_scanned(self, reason: str) -> None:
         """Walks the file record by record (``rosbags`` could not open it: ``reason``)."""
-        from rosbags.interfaces import Connection as RConnection
-        from rosbags.interfaces import ConnectionExtRosbag1, MessageDefinition, MessageDefinitionFormat
-        from rosbags.rosbag1.reader import normalize
-        from rosbags.typesys.msg import normalize_msgtype
-
-        mm, size = self._mm, self.size
-        conns: dict[int, dict[bytes, bytes]] = {}
-        conn_topic: dict[int, str] = {}
-        chunk_counts: dict[int, dict[int, int]] = {}  # from the index's chunk infos
-        last: tuple[int, str] | None = None  # last good message: offset, topic
-
-        def after() -> str:
-            return f"; the last intact message before it: {last[1]} at byte {last[0]}" if last else ""
-
-        def add_conn(fields: dict[bytes, bytes], data: dict[bytes, bytes]) -> None:
-            cid = _u32(fields[b"conn"], 0)
-            topic = normalize(fields[b"topic"].decode())
-            conn_topic[cid] = topic
-            conns.setdefault(cid, data)
-
-        # The bag header record: where the index starts.
-        index_pos = 0
-        pos = len(MAGIC)
-        try:
-            op, fields, dpos, dlen = _record(mm, pos, size)
-            if op != OP_BAG:
-                raise _RecordError(f"record op {op}, expected the bag header (op {OP_BAG})")
-            index_pos = int(struct.unpack("<Q", fields[b"index_pos"])[0])
-            pos = dpos + dlen
-        except (_RecordError, KeyError, struct.error) as exc:
-            self.damage.append(Damage(pos, None, f"bag header record damaged: {exc}"))
-            nxt = _resync(mm, pos + 1, size, (OP_CHUNK,))
-            pos = nxt if nxt is not None else size
-        data_end = index_pos if 0 < index_pos <= size else size
-        while pos < data_end:
-            try:
-                op, fields, dpos, dlen = _record(mm, pos, size)
-            except _RecordError as exc:
-                if exc.cut and b"op" in exc.fields and exc.fields[b"op"] == bytes([OP_CHUNK]):
-                    last = self._scan_cut_chunk(pos, exc.fields, conns, conn_topic, add_conn, last)
-                    break
-                self.damage.append(Damage(pos, None, f"record unreadable: {exc}{after()}"))
-                if exc.cut:
-                    break
-                nxt = _resync(mm, pos + 1, data_end, (OP_CHUNK,))
-                if nxt is None:
-                    break
-                self.damage[-1].what += f"; went on at the next chunk, byte {nxt}"
-                pos = nxt
-                continue
-            if op == OP_CHUNK:
-                comp = fields.get(b"compression", b"none").decode()
-                self._chunks[pos] = _Chunk(pos, dpos, dlen, comp)
-                last = self._scan_chunk(self._chunks[pos], add_conn, conn_topic, last) or last
-            elif op == OP_CONN:
-                add_conn(fields, _fields(mm, dpos, dpos + dlen))
-            elif op not in (OP_INDEX, OP_CHUNK_INFO):
-                self.damage.append(Damage(pos, None, f"unexpected record op {op} among the chunks{after()}"))
-            pos = dpos + dlen
-        # The index: connection records and chunk infos (which topics each chunk held).
-        if index_pos == 0:
-            self.damage.append(
-                Damage(
-                    data_end,
-                    last[1] if last else None,
-                    "the bag has no index (the bag header's index_pos is 0: the recording was not closed; "
-                    f"`rosbag reindex` repairs it){after()}",
-                )
-            )
-        elif index_pos > size:
-            if not any("cut off" in d.what or "runs past the end" in d.what for d in self.damage):
-                self.damage.append(
-                    Damage(
-                        size,
-                        last[1] if last else None,
-                        f"truncated: the index should start at byte {index_pos}, "
-                        f"but the file ends at byte {size}{after()}",
-                    )
-                )
-        elif index_pos == size:
-            self.damage.append(
-                Damage(
-                    size,
-                    last[1] if last else None,
-                    f"the index is missing: the file ends at byte {size}, where "
-                    f"the bag header says the index starts{after()}",
-                )
-            )
+        scan = _Scan()
+        pos, index_pos = self._scan_bag_header()
+        self._scan_data(scan, pos, index_pos if 0 < index_pos <= self.size else self.size)
+        if 0 < index_pos < self.size:
+            self._scan_index(scan, index_pos)
         else:
-            pos = index_pos
-            while pos < size:
-                try:
-                    op, fields, dpos, dlen = _record(mm, pos, size)
-                    if op == OP_CONN:
-                        add_conn(fields, _fields(mm, dpos, dpos + dlen))
-                    elif op == OP_CHUNK_INFO:
-                        cpos = int(struct.unpack("<Q", fields[b"chunk_pos"])[0])
-                        chunk_counts[cpos] = {
-                            _u32(mm, dpos + 8 * i): _u32(mm, dpos + 8 * i + 4) for i in range(dlen // 8)
-                        }
-                except (_RecordError, KeyError, struct.error) as exc:
-                    self.damage.append(
-                        Damage(pos, None, f"index record unreadable: {exc} (the index starts at byte {index_pos})")
-                    )
-                    break
-                pos = dpos + dlen
+            self._no_index(scan, index_pos)
         for d in self.damage:  # a damaged chunk: its topics and message count from the index, where it was read
-            if d.topic is None and d.offset in chunk_counts:
-                d.topic = _chunk_topics(chunk_counts[d.offset], conn_topic)
-                d.lost = sum(chunk_counts[d.offset].values())
+            if d.topic is None and d.offset in scan.chunk_counts:
+                d.topic = _chunk_topics(scan.chunk_counts[d.offset], scan.conn_topic)
+                d.lost = sum(scan.chunk_counts[d.offset].values())
         if not self.damage:
             self.damage.append(Damage(0, None, f"rosbags cannot open it ({reason}), though no record is damaged"))
         if not self.recover:
@@ -332,15 +255,101 @@ class Bag:
                 f"{self.path}: not a readable ROS 1 bag as it is: damaged at {first}{more}; "
                 f"{len(self._entries)} intact messages"
             )
+        self._scanned_connections(scan)
+
+    def _scan_bag_header(self) -> tuple[int, int]:
+        """Where the first record after the bag header lies, and where the header says the index starts (0:
+        unknown). A damaged header is named, and the walk goes on at the next chunk."""
+        pos = len(MAGIC)
+        try:
+            op, fields, dpos, dlen = _record(self._mm, pos, self.size)
+            if op != OP_BAG:
+                raise _RecordError(f"record op {op}, expected the bag header (op {OP_BAG})")
+            return dpos + dlen, int(struct.unpack("<Q", fields[b"index_pos"])[0])
+        except (_RecordError, KeyError, struct.error) as exc:
+            self.damage.append(Damage(pos, None, f"bag header record damaged: {exc}"))
+            nxt = _resync(self._mm, pos + 1, self.size, (OP_CHUNK,))
+            return (nxt if nxt is not None else self.size), 0
+
+    def _scan_data(self, scan: _Scan, pos: int, data_end: int) -> None:
+        """The chunks and connection records from ``pos`` to the index; damaged records are named and skipped."""
+        mm, size = self._mm, self.size
+        while pos < data_end:
+            try:
+                op, fields, dpos, dlen = _record(mm, pos, size)
+            except _RecordError as exc:
+                if exc.cut and b"op" in exc.fields and exc.fields[b"op"] == bytes([OP_CHUNK]):
+                    self._scan_cut_chunk(scan, pos, exc.fields)
+                    return
+                self.damage.append(Damage(pos, None, f"record unreadable: {exc}{scan.after()}"))
+                nxt = None if exc.cut else _resync(mm, pos + 1, data_end, (OP_CHUNK,))
+                if nxt is None:
+                    return
+                self.damage[-1].what += f"; went on at the next chunk, byte {nxt}"
+                pos = nxt
+                continue
+            if op == OP_CHUNK:
+                comp = fields.get(b"compression", b"none").decode()
+                self._chunks[pos] = _Chunk(pos, dpos, dlen, comp)
+                self._scan_chunk(scan, self._chunks[pos])
+            elif op == OP_CONN:
+                scan.add_conn(fields, _fields(mm, dpos, dpos + dlen))
+            elif op not in (OP_INDEX, OP_CHUNK_INFO):
+                self.damage.append(Damage(pos, None, f"unexpected record op {op} among the chunks{scan.after()}"))
+            pos = dpos + dlen
+
+    def _no_index(self, scan: _Scan, index_pos: int) -> None:
+        """Names why there is no index to read: the recording was not closed, or the file was cut."""
+        topic, size = scan.last[1] if scan.last else None, self.size
+        if index_pos == 0:
+            what = (
+                "the bag has no index (the bag header's index_pos is 0: the recording was not closed; "
+                "`rosbag reindex` repairs it)"
+            )
+            self.damage.append(Damage(size, topic, what + scan.after()))
+        elif index_pos > size:
+            if not any("cut off" in d.what or "runs past the end" in d.what for d in self.damage):
+                what = f"truncated: the index should start at byte {index_pos}, but the file ends at byte {size}"
+                self.damage.append(Damage(size, topic, what + scan.after()))
+        else:
+            what = f"the index is missing: the file ends at byte {size}, where the bag header says the index starts"
+            self.damage.append(Damage(size, topic, what + scan.after()))
+
+    def _scan_index(self, scan: _Scan, index_pos: int) -> None:
+        """The index's connection records and chunk infos (which topics each chunk held)."""
+        mm, pos = self._mm, index_pos
+        while pos < self.size:
+            try:
+                op, fields, dpos, dlen = _record(mm, pos, self.size)
+                if op == OP_CONN:
+                    scan.add_conn(fields, _fields(mm, dpos, dpos + dlen))
+                elif op == OP_CHUNK_INFO:
+                    cpos = int(struct.unpack("<Q", fields[b"chunk_pos"])[0])
+                    scan.chunk_counts[cpos] = {
+                        _u32(mm, dpos + 8 * i): _u32(mm, dpos + 8 * i + 4) for i in range(dlen // 8)
+                    }
+            except (_RecordError, KeyError, struct.error) as exc:
+                self.damage.append(
+                    Damage(pos, None, f"index record unreadable: {exc} (the index starts at byte {index_pos})")
+                )
+                return
+            pos = dpos + dlen
+
+    def _scanned_connections(self, scan: _Scan) -> None:
+        """The connections found by the walk, as ``rosbags`` gives them; messages of no known connection go."""
+        from rosbags.interfaces import Connection as RConnection
+        from rosbags.interfaces import ConnectionExtRosbag1, MessageDefinition, MessageDefinitionFormat
+        from rosbags.typesys.msg import normalize_msgtype
+
         counts: dict[int, int] = {}
         for e in self._entries:
             counts[e.conn] = counts.get(e.conn, 0) + 1
-        for cid, data in sorted(conns.items()):
+        for cid, data in sorted(scan.conns.items()):
             latching = data.get(b"latching")
             self.connections.append(
                 RConnection(
                     cid,
-                    conn_topic[cid],
+                    scan.conn_topic[cid],
                     normalize_msgtype(data.get(b"type", b"").decode()),
                     MessageDefinition(MessageDefinitionFormat.MSG, data.get(b"message_definition", b"").decode()),
                     data.get(b"md5sum", b"").decode(),
@@ -352,24 +361,16 @@ class Bag:
                     self,
                 )
             )
-        known = set(conns)
-        self._entries = sorted(e for e in self._entries if e.conn in known)
-        self._topics = dict(conn_topic)
+        self._entries = sorted(e for e in self._entries if e.conn in scan.conns)
+        self._topics = dict(scan.conn_topic)
 
-    def _scan_chunk(
-        self,
-        chunk: _Chunk,
-        add_conn: Callable[[dict[bytes, bytes], dict[bytes, bytes]], None],
-        conn_topic: dict[int, str],
-        last: tuple[int, str] | None,
-        cut: bool = False,
-    ) -> tuple[int, str] | None:
+    def _scan_chunk(self, scan: _Scan, chunk: _Chunk, cut: bool = False) -> None:
         """Records the messages of one chunk; damaged records are named and skipped (resynchronising)."""
         try:
             buf = self._chunk_data(chunk)
         except _RecordError as exc:
             self.damage.append(Damage(chunk.pos, None, str(exc)))
-            return last
+            return
         base = chunk.datapos if chunk.compression == "none" else chunk.pos
         where = "" if chunk.compression == "none" else f" (chunk at byte {chunk.pos}, {chunk.compression})"
         p, end = 0, len(buf)
@@ -377,80 +378,53 @@ class Bag:
             try:
                 op, fields, dpos, dlen = _record(buf, p, end)
                 if op == OP_CONN:
-                    add_conn(fields, _fields(buf, dpos, dpos + dlen))
+                    scan.add_conn(fields, _fields(buf, dpos, dpos + dlen))
                 elif op == OP_MSG:
                     cid = _u32(fields[b"conn"], 0)
                     sec, nsec = struct.unpack("<II", fields[b"time"])
-                    if cid not in conn_topic:
+                    if cid not in scan.conn_topic:
                         raise _RecordError(f"message of connection {cid}, which no connection record defines")
                     self._entries.append(Entry(sec * 1_000_000_000 + nsec, chunk.pos, p, cid))
-                    last = (base + p, conn_topic[cid])
+                    scan.last = (base + p, scan.conn_topic[cid])
                 else:
                     raise _RecordError(f"record op {op} inside a chunk (expected messages and connections)")
                 p = dpos + dlen
             except (_RecordError, KeyError, struct.error) as exc:
                 fields = getattr(exc, "fields", {})
-                topic = conn_topic.get(_u32(fields[b"conn"], 0)) if len(fields.get(b"conn", b"")) == 4 else None
-                after = f"; the last intact message before it: {last[1]} at byte {last[0]}" if last else ""
+                conn = fields.get(b"conn", b"")
+                topic = scan.conn_topic.get(_u32(conn, 0)) if len(conn) == 4 else None
                 if getattr(exc, "cut", False) and cut:
-                    self.damage.append(
-                        Damage(
-                            base + p,
-                            topic,
-                            f"truncated: the file ends at byte {self.size}, inside this "
-                            f"message record{where} ({exc}){after}",
-                            lost=1,
-                        )
-                    )
-                    break
-                self.damage.append(Damage(base + p, topic, f"message record unreadable{where}: {exc}{after}"))
+                    what = f"truncated: the file ends at byte {self.size}, inside this message record{where} ({exc})"
+                    self.damage.append(Damage(base + p, topic, what + scan.after(), lost=1))
+                    return
+                self.damage.append(Damage(base + p, topic, f"message record unreadable{where}: {exc}{scan.after()}"))
                 nxt = _resync(buf, p + 1, end, (OP_MSG, OP_CONN))
                 if nxt is None:
                     self.damage[-1].what += "; the rest of the chunk is lost"
-                    break
+                    return
                 self.damage[-1].what += f"; went on at byte {base + nxt}"
                 p = nxt
-        return last
 
-    def _scan_cut_chunk(
-        self,
-        pos: int,
-        fields: dict[bytes, bytes],
-        conns: dict[int, dict[bytes, bytes]],
-        conn_topic: dict[int, str],
-        add_conn: Callable[[dict[bytes, bytes], dict[bytes, bytes]], None],
-        last: tuple[int, str] | None,
-    ) -> tuple[int, str] | None:
+    def _scan_cut_chunk(self, scan: _Scan, pos: int, fields: dict[bytes, bytes]) -> None:
         """The last chunk of a truncated file: the messages complete before the cut."""
         hlen = _u32(self._mm, pos)
         dpos = pos + 4 + hlen + 4
         comp = fields.get(b"compression", b"none").decode()
         declared = _u32(self._mm, pos + 4 + hlen) if pos + 8 + hlen <= self.size else -1
         present = max(0, self.size - dpos)
+        inside = f"the file ends at byte {self.size}, inside"
         if comp != "none":
-            self.damage.append(
-                Damage(
-                    pos,
-                    None,
-                    f"truncated: the file ends at byte {self.size}, inside this {comp} chunk "
-                    f"({present} of {declared} bytes): its messages are lost",
-                )
-            )
-            return last
+            what = f"truncated: {inside} this {comp} chunk ({present} of {declared} bytes): its messages are lost"
+            self.damage.append(Damage(pos, None, what))
+            return
         n = len(self.damage)
         chunk = _Chunk(pos, dpos, present, comp)
         self._chunks[pos] = chunk
-        last = self._scan_chunk(chunk, add_conn, conn_topic, last, cut=True)
+        self._scan_chunk(scan, chunk, cut=True)
         if len(self.damage) == n:  # cut exactly at a record boundary
-            self.damage.append(
-                Damage(
-                    self.size,
-                    last[1] if last else None,
-                    f"truncated: the file ends at byte {self.size}, "
-                    f"inside the chunk at byte {pos} ({present} of {declared} bytes)",
-                )
-            )
-        return last
+            topic = scan.last[1] if scan.last else None
+            what = f"truncated: {inside} the chunk at byte {pos} ({present} of {declared} bytes)"
+            self.damage.append(Damage(self.size, topic, what))
 
     # -- reading ------------------------------------------------------------------------------------------------
     def _chunk_data(self, chunk: _Chunk) -> Any:

@@ -34,10 +34,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..tools.bench_ros import report, run
 
-    if args.sequential:
-        results = [m for s in ("relay", "node", "nodelet") for m in run(args.frames, args.rate, args.threads, s)]
-    else:
-        results = run(frames=args.frames, rate=args.rate, threads=args.threads)
+    results = run(frames=args.frames, rate=args.rate, threads=args.threads, sequential=args.sequential)
     print(
         f"image -> output latency at {args.rate:g} Hz, 512x424 16UC1, {args.frames} frames each, "
         f"num_threads {args.threads}, same run, "
