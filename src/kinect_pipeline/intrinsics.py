@@ -111,6 +111,10 @@ def read_camera_info_yaml(path: Path) -> Intrinsics:
         ) from exc
     if len(k) != 9:
         raise IntrinsicsError(f"{where}: camera_matrix has {len(k)} values: expected 9 (3x3, row-major)")
+    try:  # the camera_info's own checks: a pinhole K, a skew within a pixel
+        _core.camera_from_intrinsics(max(width, 1), max(height, 1), k)
+    except (ValueError, TypeError) as exc:
+        raise IntrinsicsError(f"{where}: {exc}") from exc
     return Intrinsics(k[0], k[4], k[2], k[5], width, height, where)
 
 

@@ -61,7 +61,8 @@ void bindMessages(py::module_& m)
       },
       py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "",
       "The camera of a sensor_msgs/CameraInfo's width, height and K (fx = K[0], fy = K[4], cx = K[2], cy = K[5]); "
-      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values (the ROS node's checks).");
+      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size, non-finite values, a K not of the form "
+      "[fx s cx; 0 fy cy; 0 0 1] or a skew s that would move a pixel by a pixel or more (the ROS node's checks).");
 }
 
 void bindEncodeDepth(py::module_& m)

@@ -118,6 +118,26 @@ def test_bad_intrinsics_name_the_option(
 
 
 @pytest.mark.parametrize(
+    ("matrix", "expect"),
+    [
+        ("365, 4, 255, 0, 365, 211, 0, 0, 1", "K[1] (skew) = 4: "),
+        ("365, 0, 255, 0, 365, 211, 0, 0, 0", "expected a pinhole camera's [fx s cx; 0 fy cy; 0 0 1]"),
+    ],
+)
+def test_a_camera_info_yaml_whose_matrix_would_be_misread_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], matrix: str, expect: str
+) -> None:
+    import numpy as np
+
+    f, y = tmp_path / "f.npy", tmp_path / "cam.yaml"
+    np.save(f, np.full((424, 512), 2.0, np.float32))
+    y.write_text(f"image_width: 512\nimage_height: 424\ncamera_matrix:\n  rows: 3\n  cols: 3\n  data: [{matrix}]\n")
+    assert main(["calibrate", str(f), "--intrinsics", str(y)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"kinect-pipeline calibrate: --intrinsics {y}: ") and expect in err, err
+
+
+@pytest.mark.parametrize(
     ("args", "says"),
     [
         (["quality", "--frames", "0"], "argument --frames: '0': expected a whole number 1..1000000"),

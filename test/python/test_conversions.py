@@ -46,6 +46,19 @@ def test_camera_from_intrinsics_is_the_nodes() -> None:
         _core.camera_from_intrinsics(512, 424, [1.0, 2.0], "")
 
 
+def test_a_matrix_the_camera_would_misread_is_refused() -> None:
+    """The core's camera has no skew and takes K[8] as 1: a K that says otherwise is refused, naming the value."""
+    k = [365.5, 0.0, 255.5, 0.0, 366.0, 211.5, 0.0, 0.0, 1.0]
+    assert _core.camera_from_intrinsics(512, 424, [*k[:1], 0.5, *k[2:]]).fx == 365.5  # 0.29 px: within a pixel
+    with pytest.raises(ValueError, match=r"K\[1\] \(skew\) = 2: .* 1.15574 px off; expected \|skew\| < 1.73"):
+        _core.camera_from_intrinsics(512, 424, [*k[:1], 2.0, *k[2:]])
+    for i, v in ((3, 1.0), (6, 0.5), (7, -2.0), (8, 0.0), (8, 2.0), (8, float("nan"))):
+        bad = list(k)
+        bad[i] = v
+        with pytest.raises(ValueError, match=r"expected a pinhole camera's \[fx s cx; 0 fy cy; 0 0 1\]"):
+            _core.camera_from_intrinsics(512, 424, bad)
+
+
 def test_the_tools_use_them(tmp_path: object) -> None:
     from types import SimpleNamespace
 

@@ -78,6 +78,22 @@ TEST(Conversions, CameraFromInfo)
   EXPECT_NE(message([&] { cameraFromInfo(bad); }).find("fy"), std::string::npos);
 }
 
+TEST(Conversions, CameraFromInfoRefusesAMatrixItWouldMisread)
+{
+  auto skewed = info();
+  skewed.K[1] = 0.5;  // 0.29 px at the rows farthest from cy: within a pixel, taken
+  EXPECT_DOUBLE_EQ(cameraFromInfo(skewed).fx, 365.0);
+  skewed.K[1] = 2.0;  // 1.16 px
+  const std::string m = message([&] { cameraFromInfo(skewed); });
+  EXPECT_NE(m.find("K[1] (skew) = 2"), std::string::npos) << m;
+  EXPECT_NE(m.find("expected |skew| < 1.73"), std::string::npos) << m;
+  auto scaled = info();
+  scaled.K[8] = 0.0;
+  const std::string n = message([&] { cameraFromInfo(scaled); });
+  EXPECT_NE(n.find("[fx s cx; 0 fy cy; 0 0 1]"), std::string::npos) << n;
+  EXPECT_NE(n.find("0, 0, 0]"), std::string::npos) << n;
+}
+
 TEST(Conversions, DepthImagesAreViewedInPlace)
 {
   for (auto [encoding, type, elem] : {std::tuple{"16UC1", CV_16UC1, 2}, {"mono16", CV_16UC1, 2}, {"32FC1", CV_32FC1, 4},

@@ -47,7 +47,9 @@ cv::Mat depthFromBuffer(const ImageBuffer& image, cv::Mat& buffer);
  * @brief Camera model from a CameraInfo's size and K (row-major 3x3): fx = K[0], fy = K[4], cx = K[2], cy = K[5]
  *        (rectified depth).
  * @param frame_id the camera_info's frame, quoted in the message for K[0] = 0
- * @throw std::invalid_argument for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values, quoting them.
+ * @throw std::invalid_argument for K[0] = 0 (an uncalibrated camera), a zero size, non-finite values, a K not of
+ *        the form [fx s cx; 0 fy cy; 0 0 1], or a skew s that would move a pixel by a pixel or more (the camera has
+ *        no skew), quoting them.
  */
 Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
                             const std::string& frame_id);

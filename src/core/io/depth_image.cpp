@@ -1,5 +1,7 @@
 #include "kinect_pipeline/io/depth_image.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
@@ -35,8 +37,29 @@ Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std
     s << "camera_info size " << width << "x" << height << ": expected a non-zero width and height";
     throw std::invalid_argument(s.str());
   }
+  if (K[3] != 0.0 || K[6] != 0.0 || K[7] != 0.0 || K[8] != 1.0)
+  {
+    std::ostringstream s;
+    s << "camera_info K = [" << K[0];
+    for (std::size_t i = 1; i < K.size(); ++i)
+      s << (i % 3 ? ", " : "; ") << K[i];
+    s << "]: expected a pinhole camera's [fx s cx; 0 fy cy; 0 0 1] (K[3], K[6], K[7] = 0 and K[8] = 1)";
+    throw std::invalid_argument(s.str());
+  }
   // Camera's constructor checks the rest (fy > 0, finite values) and names the field.
-  return Camera(static_cast<int>(width), static_cast<int>(height), K[0], K[4], K[2], K[5]);
+  const Camera cam(static_cast<int>(width), static_cast<int>(height), K[0], K[4], K[2], K[5]);
+  // The core's camera has no skew (K[1]): taken without it, a pixel's column is off by skew (v - cy) / fy, which
+  // must stay under a pixel (a calibration's skew of a few hundredths moves none).
+  const double rows = std::max(std::fabs(cam.cy), std::fabs(cam.height - 1 - cam.cy));  // pixel centres
+  if (!(std::fabs(K[1]) * rows / cam.fy < 1.0))
+  {
+    std::ostringstream s;
+    s << "camera_info K[1] (skew) = " << K[1] << ": without it (this package's camera has none) the rows farthest "
+      << "from cy = " << cam.cy << " would be " << std::fabs(K[1]) * rows / cam.fy << " px off; expected |skew| < "
+      << cam.fy / rows << " (under a pixel)";
+    throw std::invalid_argument(s.str());
+  }
+  return cam;
 }
 
 cv::Mat depthFromBuffer(const ImageBuffer& image, cv::Mat& buffer)
