@@ -129,7 +129,7 @@ def frames_for(args: argparse.Namespace, scene_name: str) -> list[np.ndarray]:
     return [render_frame(CAM, SCENES[scene_name](), h, p, r, args.encoding, seed=s).depth for s in seeds]
 
 
-def main() -> int:
+def parse_args() -> argparse.Namespace:
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", required=True)
     ap.add_argument("--deadline", type=float, default=60.0)
@@ -153,34 +153,39 @@ def main() -> int:
     ap.add_argument("--clock", type=float, default=None, help="publish /clock from this time [s]")
     ap.add_argument("--clock-jump", default=None, help="FRAME:T: at that frame the clock starts again from T")
     ap.add_argument("--switch-scene", default=None, help="SCENE:EXPR: render SCENE once EXPR holds")
-    args = ap.parse_args()
+    return ap.parse_args()
 
-    rospy.init_node("feeder", anonymous=True, disable_signals=True)
-    rec = Recorder(args.ns, args.scan_frame)
-    frames = frames_for(args, args.scene)
-    image_topic = f"{args.ns}/{args.image}"
-    info_pub = rospy.Publisher(image_topic.rsplit("/", 1)[0] + "/camera_info", CameraInfo, queue_size=5)
-    image_pub = (
-        rospy.Publisher(image_topic, Image, queue_size=5)
-        if args.transport == "raw"
-        else rospy.Publisher(image_topic + "/compressedDepth", CompressedImage, queue_size=5)
-        if args.transport == "compressedDepth"
-        else None
-    )
-    imu_pub = rospy.Publisher("/imu", Imu, queue_size=5)
-    pitch_pub = rospy.Publisher("/base_pitch", Float64, queue_size=5)
-    clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
-    tf = tf2_ros.TransformBroadcaster()
-    sent: list[float] = []
-    state: dict[str, Any] = {"switched": False}
-    clock = {"t0": args.clock, "wall0": time.monotonic()}
 
-    def now() -> rospy.Time:
-        if clock["t0"] is None:
+class Feeder:
+    """Sends the frames (and tf, IMU, base pitch, /clock) as the options say, on the feeder's clock."""
+
+    def __init__(self, args: argparse.Namespace) -> None:
+        self.args = args
+        self.rec = Recorder(args.ns, args.scan_frame)
+        self.frames = frames_for(args, args.scene)
+        image_topic = f"{args.ns}/{args.image}"
+        self.info_pub = rospy.Publisher(image_topic.rsplit("/", 1)[0] + "/camera_info", CameraInfo, queue_size=5)
+        self.image_pub = None
+        if args.transport == "raw":
+            self.image_pub = rospy.Publisher(image_topic, Image, queue_size=5)
+        elif args.transport == "compressedDepth":
+            self.image_pub = rospy.Publisher(image_topic + "/compressedDepth", CompressedImage, queue_size=5)
+        self.imu_pub = rospy.Publisher("/imu", Imu, queue_size=5)
+        self.pitch_pub = rospy.Publisher("/base_pitch", Float64, queue_size=5)
+        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
+        self.tf = tf2_ros.TransformBroadcaster()
+        self.sent: list[float] = []
+        self.state: dict[str, Any] = {"switched": False}
+        self.t0, self.wall0 = args.clock, time.monotonic()  # the feeder's clock: /clock from t0, or ROS time
+
+    def now(self) -> rospy.Time:
+        if self.t0 is None:
             return rospy.Time.now()
-        return rospy.Time.from_sec(clock["t0"] + time.monotonic() - clock["wall0"])
+        return rospy.Time.from_sec(self.t0 + time.monotonic() - self.wall0)
 
-    def env() -> dict[str, Any]:
+    def env(self) -> dict[str, Any]:
+        """What ``--until`` and ``--switch-scene`` see."""
+        rec = self.rec
         with rec.lock:
             return {
                 "scans": list(rec.scans),
@@ -188,41 +193,50 @@ def main() -> int:
                 "diags": list(rec.diags),
                 "logs": list(rec.logs),
                 "tfs": list(rec.tfs),
-                "sent": list(sent),
+                "sent": list(self.sent),
                 "diag": rec.diag,
                 "num": rec.num,
                 "math": math,
-                "switched": state["switched"],
+                "switched": self.state["switched"],
             }
 
-    jump_frame, jump_to = (
-        (int(args.clock_jump.split(":")[0]), float(args.clock_jump.split(":")[1])) if args.clock_jump else (-1, 0.0)
-    )
-    switch_scene, switch_expr = args.switch_scene.split(":", 1) if args.switch_scene else (None, None)
-    start = time.monotonic()
-    next_frame = time.monotonic()
-    ok = False
-    i = 0
-    while time.monotonic() - start < args.deadline:
-        if clock["t0"] is not None:
-            clock_pub.publish(Clock(clock=now()))
-        if time.monotonic() < next_frame:
-            time.sleep(min(0.005, max(0.0, next_frame - time.monotonic())))
-            continue
-        next_frame += 1.0 / args.rate
-        if i == jump_frame:
-            clock["t0"], clock["wall0"] = jump_to, time.monotonic()
-            clock_pub.publish(Clock(clock=now()))
-        if switch_scene and not state["switched"] and eval(switch_expr, env()):
-            frames = frames_for(args, switch_scene)
-            state["switched"] = True
-            state["switched_at"] = len(sent)
-        stamp = now()
-        if args.transport == "none" or stamp.is_zero():  # only listening, or no /clock yet
-            if eval(args.until, env()):
-                ok = True
-                break
-            continue
+    def run(self) -> bool:
+        """Sends frame after frame at ``--rate`` until ``--until`` holds (True) or the deadline passes (False)."""
+        args = self.args
+        jump_frame, jump_to = (-1, 0.0)
+        if args.clock_jump:
+            jump_frame, jump_to = int(args.clock_jump.split(":")[0]), float(args.clock_jump.split(":")[1])
+        start = next_frame = time.monotonic()
+        i = 0
+        while time.monotonic() - start < args.deadline:
+            if self.t0 is not None:
+                self.clock_pub.publish(Clock(clock=self.now()))
+            if time.monotonic() < next_frame:
+                time.sleep(min(0.005, max(0.0, next_frame - time.monotonic())))
+                continue
+            next_frame += 1.0 / args.rate
+            if i == jump_frame:
+                self.t0, self.wall0 = jump_to, time.monotonic()
+                self.clock_pub.publish(Clock(clock=self.now()))
+            self.switch_scene()
+            stamp = self.now()
+            if args.transport != "none" and not stamp.is_zero():  # else only listening, or no /clock yet
+                self.send(i, stamp)
+                i += 1
+            if eval(args.until, self.env()):
+                return True
+        return False
+
+    def switch_scene(self) -> None:
+        if self.args.switch_scene and not self.state["switched"]:
+            scene, expr = self.args.switch_scene.split(":", 1)
+            if eval(expr, self.env()):
+                self.frames = frames_for(self.args, scene)
+                self.state.update(switched=True, switched_at=len(self.sent))
+
+    def send(self, i: int, stamp: rospy.Time) -> None:
+        """Frame i, its camera_info and the pose sources the options name, at ``stamp``."""
+        args = self.args
         if args.tf and (args.tf_frames < 0 or i < args.tf_frames):
             h, p, r = triple(args.tf)
             t = TransformStamped()
@@ -232,56 +246,62 @@ def main() -> int:
             t.transform.translation.x = 0.1
             t.transform.translation.z = h
             t.transform.rotation = optical_quaternion(p, r)
-            tf.sendTransform(t)
-            state["last_tf"] = stamp.to_sec()
+            self.tf.sendTransform(t)
+            self.state["last_tf"] = stamp.to_sec()
         if args.imu_pitch is not None:
             imu = Imu()
             imu.header.stamp = stamp
             c, s = math.cos(args.imu_pitch / 2), math.sin(args.imu_pitch / 2)
             imu.orientation = Quaternion(x=0.0, y=s, z=0.0, w=c)
-            imu_pub.publish(imu)
+            self.imu_pub.publish(imu)
         if args.base_pitch is not None:
-            pitch_pub.publish(Float64(data=args.base_pitch))
-        depth = frames[i % len(frames)]
+            self.pitch_pub.publish(Float64(data=args.base_pitch))
         info = CameraInfo()
         info.header.stamp = stamp
         info.header.frame_id = OPTICAL
         info.width, info.height = CAM.width, CAM.height
         info.K = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
         info.P = [CAM.fx, 0, CAM.cx, 0, 0, CAM.fy, CAM.cy, 0, 0, 0, 1, 0]
+        msg = self.image(i, info.header)
+        self.info_pub.publish(info)
+        if self.image_pub is not None:
+            self.image_pub.publish(msg)
+        self.sent.append(stamp.to_sec())
+
+    def image(self, i: int, header: Any) -> Image | CompressedImage:
+        """Frame i as the transport sends it (every ``--bad-payload-every``-th compressed one garbage)."""
+        args, depth = self.args, self.frames[i % len(self.frames)]
         if args.transport == "raw":
             msg = Image()
-            msg.header = info.header
+            msg.header = header
             msg.height, msg.width = depth.shape
             msg.encoding = args.encoding
             msg.step = depth.strides[0]
             msg.data = depth.tobytes()
+            return msg
+        out = CompressedImage()
+        out.header = header
+        if args.bad_payload_every and i % args.bad_payload_every == args.bad_payload_every - 1:
+            out.format, out.data = f"{args.encoding}; compressedDepth png", b"\x00" * 40
         else:
-            msg = CompressedImage()
-            msg.header = info.header
-            if args.bad_payload_every and i % args.bad_payload_every == args.bad_payload_every - 1:
-                msg.format, msg.data = f"{args.encoding}; compressedDepth png", b"\x00" * 40
-            else:
-                msg.format, data = kp.encode_compressed_depth(depth, codec=args.codec)
-                msg.data = bytes(data)
-        info_pub.publish(info)
-        if image_pub is not None:
-            image_pub.publish(msg)
-        sent.append(stamp.to_sec())
-        i += 1
-        if eval(args.until, env()):
-            ok = True
-            break
-    result = env()
+            out.format, data = kp.encode_compressed_depth(depth, codec=args.codec)
+            out.data = bytes(data)
+        return out
+
+
+def main() -> int:
+    args = parse_args()
+    rospy.init_node("feeder", anonymous=True, disable_signals=True)
+    feeder = Feeder(args)
+    ok = feeder.run()
+    result = feeder.env()
     for k in ("diag", "num", "math"):
         result.pop(k)
-    result.update(ok=ok, state=state)
+    result.update(ok=ok, state=feeder.state)
     with open(args.out, "w") as f:
         json.dump(result, f)
-    print(
-        f"feeder: {'condition met' if ok else 'deadline'} after {len(sent)} frames, {len(result['scans'])} scans",
-        flush=True,
-    )
+    said = "condition met" if ok else "deadline"
+    print(f"feeder: {said} after {len(feeder.sent)} frames, {len(result['scans'])} scans", flush=True)
     return 0 if ok else 1
 
 
