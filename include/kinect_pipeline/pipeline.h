@@ -49,6 +49,7 @@ struct FrameResult
    */
   ScanData cliff;
   std::array<std::uint64_t, kNumLabels> counts{};  ///< pixels per label
+  std::uint64_t speckles = 0;  ///< Config::speckle_jump: pixels taken as wrong matches (no measurement) before the opening
   SensorPose pose{0.0, 0.0, 0.0};  ///< the pose the frame was processed at (the prior, refined by the floor fit)
   FloorFitResult floor_fit;        ///< what the floor refinement decided (status kOff when refine_floor is false)
   StageTimes times;

@@ -38,6 +38,7 @@ class Config:
     projection: str
     open_kernel_size: int
     open_kernel_shape: str
+    speckle_jump: float
     threshold_curve: list[tuple[float, float]]
     range_min: float
     range_max: float
@@ -139,6 +140,8 @@ class Result:
     def range_max(self) -> float: ...
     @property
     def counts(self) -> dict[str, int]: ...
+    @property
+    def speckles(self) -> int: ...
     @property
     def times(self) -> dict[str, float]: ...
     @property

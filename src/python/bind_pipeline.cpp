@@ -35,6 +35,7 @@ struct PyResult
   py::array_t<float> ranges, intensities, cliff_ranges;
   float angle_min, angle_max, angle_increment, range_min, range_max;
   py::dict counts, times;
+  std::uint64_t speckles = 0;
   SensorPose pose{0.0, 0.0, 0.0};
   FloorFitResult floor_fit;
   FrameResult frame;  ///< the core's result for describe(): no pixels, its depth a header over `depth`'s
@@ -89,6 +90,7 @@ void toPython(FrameResult&& fr, PyResult& res)
   res.range_max = fr.scan.range_max;
   for (int k = 0; k < kNumLabels; ++k)
     res.counts[kLabelNames[k]] = fr.counts[k];
+  res.speckles = fr.speckles;
   res.pose = fr.pose;
   res.floor_fit = fr.floor_fit;
   res.times["prepare"] = fr.times.prepare;
@@ -122,6 +124,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
     fr.scan = self.result.scan;  // copied under the lock: another thread may process next
     fr.cliff = self.result.cliff;
     fr.counts = self.result.counts;
+    fr.speckles = self.result.speckles;
     fr.times = self.result.times;
     fr.pose = self.result.pose;
     fr.floor_fit = self.result.floor_fit;
@@ -237,6 +240,8 @@ void bindResult(py::module_& m)
       .def_readonly("range_min", &PyResult::range_min)
       .def_readonly("range_max", &PyResult::range_max)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
+      .def_readonly("speckles", &PyResult::speckles,
+                    "speckle_jump: pixels taken as wrong matches (no measurement) before the opening")
       .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
       .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
       .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)")

@@ -116,6 +116,7 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
     std::replace(name.begin(), name.end(), '_', ' ');
     stat.add("fraction " + name, total ? static_cast<double>(label_totals_[k]) / total : 0.0);
   }
+  stat.add("fraction taken as wrong matches (speckle_jump)", total ? static_cast<double>(speckle_total_) / total : 0.0);
 }
 
 namespace

@@ -666,6 +666,7 @@ void KinectPipelineRos::record(const SensorPose& prior, double ms)
   max_wait_ms_ = std::max(max_wait_ms_, tf_wait_ms_);
   for (int k = 0; k < kNumLabels; ++k)
     label_totals_[k] += result_.counts[k];
+  speckle_total_ += result_.speckles;
   last_fit_ = result_.floor_fit;
   ++floor_counts_[static_cast<int>(last_fit_.status)];
   last_prior_ = prior;

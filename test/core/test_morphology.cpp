@@ -10,6 +10,7 @@
 
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/stages/opening_kernels.h"
+#include "stages/speckle.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -152,5 +153,66 @@ void checkAllErodeMapped()
 TEST(Morphology, ErodeMappedMatchesMappingFirstOnEveryTarget)
 {
   const auto ran = kp_test::forEachSimdTarget([](const std::string&) { checkAllErodeMapped(); });
+  EXPECT_GE(ran.size(), 2u);
+}
+
+// speckle_jump's wrong matches (stages/speckle.h), on every target, against the rule written out pixel by pixel:
+// nearer by more than jump of its depth than each of the four pixels two steps away (no measurement: farther).
+namespace
+{
+template <typename T>
+cv::Mat islandsByTheRule(const cv::Mat& in, float factor, int& removed)
+{
+  const auto at = [&](int v, int u) {
+    const T m = DepthTraits<T>::map(in.at<T>(v, u));
+    return DepthTraits<T>::isNoReturn(m) ? INFINITY : static_cast<float>(m);
+  };
+  cv::Mat out = in.clone();
+  removed = 0;
+  for (int v = 2; v < in.rows - 2; ++v)
+    for (int u = 2; u < in.cols - 2; ++u)
+    {
+      const float z = at(v, u) * factor;
+      if (at(v, u - 2) > z && at(v, u + 2) > z && at(v - 2, u) > z && at(v + 2, u) > z)
+      {
+        out.at<T>(v, u) = T(0);
+        ++removed;
+      }
+    }
+  return out;
+}
+
+template <typename T>
+void checkIslands(int type)
+{
+  // A noisy surface with dropouts and islands 2 x 2 and 3 x 3 at random nearer depths.
+  std::mt19937 rng(11);
+  cv::Mat img(37, 45, type);
+  std::uniform_real_distribution<float> noise(0.97f, 1.03f), near(0.2f, 0.9f), coin(0.0f, 1.0f);
+  const float base = type == CV_8UC1 ? 200.0f : (type == CV_16UC1 ? 3000.0f : 3.0f);
+  for (int v = 0; v < img.rows; ++v)
+    for (int u = 0; u < img.cols; ++u)
+      img.at<T>(v, u) = coin(rng) < 0.05f ? T(0) : static_cast<T>(base * noise(rng));
+  for (int k = 0; k < 12; ++k)
+  {
+    const int s = 2 + k % 2, v = static_cast<int>(coin(rng) * (img.rows - s)), u = static_cast<int>(coin(rng) * (img.cols - s));
+    img(cv::Rect(u, v, s, s)).setTo(cv::Scalar(static_cast<double>(static_cast<T>(base * near(rng)))));
+  }
+  int expected = 0;
+  const cv::Mat want = islandsByTheRule<T>(img, 1.125f, expected);
+  cv::Mat got;
+  EXPECT_EQ(detail::removeSpeckles(img, 0.125, got, 2), expected);
+  EXPECT_TRUE(sameBits(want, got));
+  EXPECT_GT(expected, 0);
+}
+}  // namespace
+
+TEST(Speckles, EveryTargetRemovesWhatTheRuleSays)
+{
+  const auto ran = kp_test::forEachSimdTarget([](const std::string&) {
+    checkIslands<std::uint8_t>(CV_8UC1);
+    checkIslands<std::uint16_t>(CV_16UC1);
+    checkIslands<float>(CV_32FC1);
+  });
   EXPECT_GE(ran.size(), 2u);
 }

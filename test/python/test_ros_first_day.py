@@ -496,6 +496,7 @@ def test_launch_arguments_reach_the_node_and_the_tf_wait_is_reported_apart(
         "pose_fallback": "static",
     }
     assert all(s["range_min"] == pytest.approx(0.3) and s["range_max"] == 4.0 for s in res["scans"])
+    assert float(newest(res, PROC, "fraction taken as wrong matches (speckle_jump)")) == 0.0, "off by default"
     wait_ms = float(newest(res, PROC, "tf wait last [ms]") or 0)
     work_ms = float(newest(res, PROC, "processing time max [ms]") or 0)
     assert wait_ms >= 0.9 * 300  # no tf at all: each frame waited tf_timeout

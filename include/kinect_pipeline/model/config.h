@@ -82,6 +82,9 @@ struct Config
 
   int open_kernel_size = 3;                     ///< opening kernel size [px]: 0 or 1 = off, else odd >= 3
   KernelShape open_kernel_shape = KernelShape::kRect;
+  /// wrong matches (stereo cameras): a pixel nearer, by more than this fraction of its depth, than each of the four
+  /// pixels two steps away is taken as no measurement before the opening (stages/speckle.h); 0 = off
+  double speckle_jump = 0.0;
 
   std::vector<CurvePoint> threshold_curve = defaultThresholdCurve();  ///< t(d) control points [m]
 

@@ -225,6 +225,7 @@ private:
   std::string last_problem_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0, last_wait_ms_ = 0.0, max_wait_ms_ = 0.0;
   std::array<std::uint64_t, kNumLabels> label_totals_{};
+  std::uint64_t speckle_total_ = 0;  // pixels taken as wrong matches (Config::speckle_jump)
   // The floor refinement, as of the last frame.
   std::array<std::uint64_t, kNumFloorFitStatus> floor_counts_{};
   FloorFitResult last_fit_;

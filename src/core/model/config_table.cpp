@@ -76,6 +76,8 @@ std::vector<ConfigField> makeTable()
       choice("open_kernel_shape", {"rect", "cross", "ellipse"}, "Opening kernel shape",
              [](const C& c) { return toString(c.open_kernel_shape); },
              [](C& c, const std::string& v) { c.open_kernel_shape = kernelShapeFromString(v); }),
+      real("speckle_jump", &C::speckle_jump, 0.0, 10.0, "-",
+           "Wrong matches of stereo cameras: a pixel nearer, by more than this fraction of its depth, than each of the four pixels two steps away is taken as no measurement; 0 = off"),
       row("threshold_curve", FieldKind::kCurve, 0, 0, "m",
           "Threshold t(d) as 'depth:threshold, ...' control points; depths increasing, thresholds non-decreasing"),
       real("range_min", &C::range_min, 0.0, 1000.0, "m", "Shorter beams are reported as -Inf (REP 117)"),

@@ -50,6 +50,7 @@ struct FrameWork
   std::vector<std::int32_t> cliff_count;  ///< below-floor pixels per beam of the frame
   std::vector<float> band_limit;          ///< surface_band: farthest range counted per beam (+ padding) [m]
   std::vector<float> samples;             ///< the input check's samples of a float frame (checkMetres)
+  cv::Mat despeckled;                     ///< speckle_jump: the input without its wrong matches
   std::vector<std::unique_ptr<ThreadScratch>> scratch;
   std::vector<BinScratch*> bins;  ///< each thread's bins (scratch[i]->bins)
   std::vector<const BinScratch*> team_bins;  ///< those of this frame's team (team())

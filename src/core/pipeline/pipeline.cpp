@@ -21,6 +21,7 @@
 #include "stages/opening/opening.h"
 #include "stages/scan/binning.h"
 #include "stages/scan/output.h"
+#include "stages/speckle.h"
 
 namespace kinect_pipeline
 {
@@ -323,12 +324,16 @@ void Pipeline::process(const cv::Mat& depth, double base_pitch, double base_roll
           out, stamp);
 }
 
-void Pipeline::process(const cv::Mat& depth, const SensorPose& prior, FrameResult& out, double stamp)
+void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResult& out, double stamp)
 {
   using detail::Clock;
   const auto t0 = Clock::now();
-  detail::checkImage(depth, camera_, work_->samples);
+  detail::checkImage(input, camera_, work_->samples);
   detail::checkPose(prior, config_.ceiling_height);
+  const int threads = config_.num_threads > 0 ? config_.num_threads : detail::defaultThreads();
+  const bool despeckle = config_.speckle_jump > 0.0;
+  out.speckles = despeckle ? detail::removeSpeckles(input, config_.speckle_jump, work_->despeckled, threads) : 0;
+  const cv::Mat& depth = despeckle ? work_->despeckled : input;
   const int type = depth.type();
   const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : (type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32);
   if (!lut_valid_ || enc != lut_encoding_)
