@@ -209,7 +209,8 @@ void bindConfigClass(py::module_& m)
   config
       .def(py::init(&configOf),
            "Config(**fields): the defaults with these fields changed (names as the ROS parameters); "
-           "sensor_model=NAME first applies that sensor's preset (threshold_curve, range_max, cliff_min_pixels), "
+           "sensor_model=NAME first applies that sensor's preset (threshold_curve, range_max, cliff_min_pixels, "
+           "speckle_jump), "
            "which fields given explicitly override.")
       .def_property_readonly("threshold_curve_text",
                              [](const Config& c) { return formatThresholdCurve(c.threshold_curve); })
@@ -307,6 +308,7 @@ py::dict presetDict(const SensorModel& sm)
   d["threshold_curve"] = formatThresholdCurve(sm.thresholdCurve());
   d["range_max"] = sm.range_max;
   d["cliff_min_pixels"] = sm.cliffMinPixels();
+  d["speckle_jump"] = sm.speckle_jump;
   d["camera"] = sm.camera;
   d["driver"] = sm.driver;
   d["camera_ns"] = sm.camera_ns;

@@ -311,6 +311,7 @@ def test_a_second_launch_with_another_sensor_model_gets_its_preset_and_leftovers
         "~sensor_model realsense_d4xx",
         "~range_max = 4 (the preset's: 6)",
         "~cliff_min_pixels = 6 (the preset's: 4)",
+        "~speckle_jump = 0 (the preset's: 0.125)",
         "~threshold_curve = '",
         f"rosparam delete {node}/PARAMETER",
     ):

@@ -72,7 +72,8 @@ def test_presets_are_the_cores_table() -> None:
         d = kp.sensor_model(n)
         cfg = kp.Config(sensor_model=n)
         assert cfg.threshold_curve_text == d["threshold_curve"] and cfg.range_max == d["range_max"]
-        assert cfg.cliff_min_pixels == d["cliff_min_pixels"]
+        assert cfg.cliff_min_pixels == d["cliff_min_pixels"] and cfg.speckle_jump == d["speckle_jump"]
+        assert d["speckle_jump"] == (0.125 if n == "realsense_d4xx" else 0.0), "wrong matches: the stereo camera's"
         assert d["depth_topic"].endswith(d["image"]) and d["info_topic"].endswith("/camera_info")
         for z in (1.0, 3.0):  # the curve is margin + k sigma (+ depth steps), sigma the published model's
             t = kp.evaluate_curve(d["threshold_curve"], z)
@@ -85,6 +86,7 @@ def test_presets_are_the_cores_table() -> None:
 def test_an_explicit_field_wins_over_the_preset() -> None:
     cfg = kp.Config(sensor_model="kinect_v1", threshold_curve="0.5:0.05, 12:1.0", range_max=7.0)
     assert cfg.threshold_curve == [(0.5, 0.05), (12.0, 1.0)] and cfg.range_max == 7.0
+    assert kp.Config(sensor_model="realsense_d4xx", speckle_jump=0.0).speckle_jump == 0.0
     assert cfg.cliff_min_pixels == kp.sensor_model("kinect_v1")["cliff_min_pixels"]
 
 

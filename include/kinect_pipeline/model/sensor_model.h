@@ -50,6 +50,7 @@ struct SensorModel
   std::string camera_ns;    ///< its usual camera namespace ("" = none)
   std::string image;        ///< its depth image topic in that namespace (camera_info beside it)
   std::vector<CurvePoint> curve;  ///< a curve given as it is (the Kinect v2's, rounded by hand); empty: from noise
+  double speckle_jump = 0.0;      ///< Config::speckle_jump: its wrong matches removed (stereo cameras); 0 = off
 
   /** @return the threshold curve: @c curve, else t(z) at the default curve's depths rounded to millimetres. */
   std::vector<CurvePoint> thresholdCurve() const;
@@ -74,7 +75,7 @@ const SensorModel& sensorModel(const std::string& name);
 inline const char* kDefaultSensorModel = "kinect_v2";
 
 /**
- * @brief The Config fields a preset sets: threshold_curve, range_max, cliff_min_pixels. Fields named in
+ * @brief The Config fields a preset sets: threshold_curve, range_max, cliff_min_pixels, speckle_jump. Fields named in
  *        @p keep (given explicitly) are left as they are.
  * @throw std::invalid_argument for an unknown name.
  */

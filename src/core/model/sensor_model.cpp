@@ -25,7 +25,8 @@ std::vector<SensorModel> makeModels()
                "kinect2_bridge (iai_kinect2)", "kinect2", "sd/image_depth",
                // t(z) rounded to millimetres, as it has always been (12 m: 1.1772 taken up to 1.178).
                {{0.5, 0.027}, {1.0, 0.030}, {1.5, 0.037}, {2.0, 0.049}, {2.5, 0.064}, {3.0, 0.085}, {3.5, 0.109},
-                {4.0, 0.138}, {5.0, 0.208}, {6.0, 0.295}, {8.0, 0.521}, {10.0, 0.815}, {12.0, 1.178}}});
+                {4.0, 0.138}, {5.0, 0.208}, {6.0, 0.295}, {8.0, 0.521}, {10.0, 0.815}, {12.0, 1.178}},
+               0.0});
   // Kinect v1 (structured light): random error 1.425 mm z^2 and a depth step of z^2 / (8 f b) (disparity in
   // 1/8 px, f = 580 px, b = 7.5 cm), both from Khoshelham & Elberink 2012; a floor pixel and the floor the pose
   // predicts each sit up to a step off. Rated range 0.8-4 m (Kinect for Windows, default mode).
@@ -33,14 +34,15 @@ std::vector<SensorModel> makeModels()
                "Khoshelham & Elberink 2012: sigma = 1.425 mm z^2, depth step z^2 / (8 f b) = 2.87 mm z^2",
                {0.0, 0.001425, 0.0, 1.0 / (8.0 * 580.0 * 0.075), 4.5, 2.0, 0.02}, 4.0,
                Camera(640, 480, 525.0, 525.0, 319.5, 239.5), "openni_launch / openni2_launch / freenect_launch",
-               "camera", "depth/image_raw", {}});
+               "camera", "depth/image_raw", {}, 0.0});
   // RealSense D4xx (active stereo): Intel's depth RMS error = z^2 * subpixel / (f * baseline), subpixel 0.08,
   // D435 baseline 50 mm, f 426 px at 848x480 (the subpixel step is in that RMS already: no step term).
   m.push_back({"realsense_d4xx", "Intel RealSense D415 / D435 / D455 (active stereo)",
                "Intel, Tuning depth cameras for best performance: RMS = z^2 * 0.08 / (f * b)",
                {0.0, 0.08 / (426.0 * 0.050), 0.0, 0.0, 4.5, 0.0, 0.02}, 6.0,
                Camera(848, 480, 426.0, 426.0, 424.0, 240.0), "realsense2_camera", "camera",
-               "depth/image_rect_raw", {}});
+               // Wrong matches, islands in front of everything around them: taken as no measurement (docs/quality.md).
+               "depth/image_rect_raw", {}, 0.125});
   // Azure Kinect (time of flight), NFOV unbinned: random error <= 17 mm (1 sigma) and systematic error
   // < 11 mm + 0.1 % of the distance over the mode's range (Microsoft's hardware specification, confirmed by
   // Tolgyessy et al. 2021); the noise of a time-of-flight pixel grows with the square of the distance
@@ -50,14 +52,14 @@ std::vector<SensorModel> makeModels()
                "Microsoft Azure Kinect DK hardware specification: random error <= 17 mm, systematic < 11 mm + 0.1 %",
                {0.001, 0.017 / (3.86 * 3.86), 0.0, 0.0, 4.5, 0.0, 0.02 + 0.011 + 0.001 * 3.86}, 3.86,
                Camera(640, 576, 504.0, 504.0, 320.0, 288.0), "Azure_Kinect_ROS_Driver", "",
-               "depth/image_raw", {}});
+               "depth/image_raw", {}, 0.0});
   // Orbbec Astra (structured light, like the Kinect v1): the same model with its focal length (570 px) and
   // baseline (7.5 cm); rated 0.6-8 m, reliable to about the Kinect v1's 4 m.
   m.push_back({"orbbec_astra", "Orbbec Astra / Astra Pro (structured light)",
                "as kinect_v1 (Khoshelham & Elberink 2012) with f = 570 px, b = 7.5 cm",
                {0.0, 0.001425, 0.0, 1.0 / (8.0 * 570.0 * 0.075), 4.5, 2.0, 0.02}, 4.0,
                Camera(640, 480, 570.0, 570.0, 319.5, 239.5), "astra_camera (ros_astra_camera) / openni2_launch",
-               "camera", "depth/image_raw", {}});
+               "camera", "depth/image_raw", {}, 0.0});
   return m;
 }
 }  // namespace
@@ -112,7 +114,7 @@ const SensorModel& sensorModel(const std::string& name)
 
 const std::vector<std::string>& sensorModelFields()
 {
-  static const std::vector<std::string> fields = {"threshold_curve", "range_max", "cliff_min_pixels"};
+  static const std::vector<std::string> fields = {"threshold_curve", "range_max", "cliff_min_pixels", "speckle_jump"};
   return fields;
 }
 
@@ -126,6 +128,8 @@ void applySensorModel(const std::string& name, Config& config, const std::vector
     config.range_max = m.range_max;
   if (!kept("cliff_min_pixels"))
     config.cliff_min_pixels = m.cliffMinPixels();
+  if (!kept("speckle_jump"))
+    config.speckle_jump = m.speckle_jump;
 }
 
 }  // namespace kinect_pipeline
