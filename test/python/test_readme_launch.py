@@ -46,4 +46,5 @@ def test_the_preset_table_is_the_cores() -> None:
         want = " / ".join(f"{100 * kp.evaluate_curve(d['threshold_curve'], z):.1f}" for z in (1.0, 2.0, 4.0))
         assert cells[2] == want, (name, cells[2], want)
         assert float(cells[3]) == d["range_max"] and int(cells[4]) == d["cliff_min_pixels"]
-        assert cells[5] == f"`{d['depth_topic']}`"
+        assert float(cells[5]) == d["speckle_jump"]
+        assert cells[6] == f"`{d['depth_topic']}`"
