@@ -135,7 +135,7 @@ public:
 
 private:
   template <typename T>
-  void run(const cv::Mat& depth, FrameResult& out);
+  void run(const cv::Mat& depth, FrameResult& out, int threads);
 
   Camera camera_;
   Config config_;

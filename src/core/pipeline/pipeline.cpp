@@ -365,24 +365,23 @@ void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResul
   switch (type)
   {
     case CV_8UC1:
-      run<std::uint8_t>(depth, out);
+      run<std::uint8_t>(depth, out, threads);
       break;
     case CV_16UC1:
-      run<std::uint16_t>(depth, out);
+      run<std::uint16_t>(depth, out, threads);
       break;
     default:
-      run<float>(depth, out);
+      run<float>(depth, out, threads);
       break;
   }
   out.times.total = detail::msSince(t0);
 }
 
 template <typename T>
-void Pipeline::run(const cv::Mat& depth, FrameResult& out)
+void Pipeline::run(const cv::Mat& depth, FrameResult& out, int threads)
 {
   using namespace detail;
   FrameWork& work = *work_;
-  const int threads = config_.num_threads > 0 ? config_.num_threads : defaultThreads();
   work.prepare(threads, camera_.width, camera_.height, projector_.beams());
   const float scale = depthScale<T>(config_.max_depth);
 
