@@ -189,7 +189,15 @@ def is_supported_depth_encoding(encoding: str) -> bool: ...
 def depth_from_buffer(
     encoding: str, width: int, height: int, step: int, is_bigendian: bool, data: bytes | npt.NDArray[np.uint8]
 ) -> Depth: ...
-def camera_from_intrinsics(width: int, height: int, K: Sequence[float], frame_id: str = "") -> Camera: ...
+def camera_from_intrinsics(
+    width: int,
+    height: int,
+    K: Sequence[float],
+    frame_id: str = "",
+    binning_x: int = 0,
+    binning_y: int = 0,
+    roi: tuple[int, int, int, int] = (0, 0, 0, 0),
+) -> Camera: ...
 def render_scene(
     camera: Camera,
     height: float,

@@ -21,6 +21,21 @@ namespace kinect_pipeline::python
 {
 namespace
 {
+// A row-major 3x3 matrix from any sequence of 9 numbers.
+std::array<double, 9> matrix9(const py::object& K)
+{
+  std::array<double, 9> k{};
+  std::size_t n = 0;
+  for (const auto& v : K)
+  {
+    if (n == 9)
+      throw py::value_error("K: expected 9 values (row-major 3x3), got more");
+    k[n++] = py::cast<double>(v);
+  }
+  if (n != 9)
+    throw py::value_error("K: expected 9 values (row-major 3x3), got " + std::to_string(n));
+  return k;
+}
 
 void bindMessages(py::module_& m)
 {
@@ -46,23 +61,18 @@ void bindMessages(py::module_& m)
       "quoting the values (the ROS node's checks).");
   m.def(
       "camera_from_intrinsics",
-      [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id) {
-        std::array<double, 9> k{};
-        std::size_t n = 0;
-        for (const auto& v : K)
-        {
-          if (n == 9)
-            throw py::value_error("K: expected 9 values (row-major 3x3), got more");
-          k[n++] = py::cast<double>(v);
-        }
-        if (n != 9)
-          throw py::value_error("K: expected 9 values (row-major 3x3), got " + std::to_string(n));
-        return cameraFromIntrinsics(width, height, k, frame_id);
+      [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id,
+         std::uint32_t binning_x, std::uint32_t binning_y, const std::array<std::uint32_t, 4>& roi) {
+        const ImageWindow window{binning_x, binning_y, roi[0], roi[1], roi[2], roi[3]};
+        return cameraFromIntrinsics(width, height, matrix9(K), frame_id, window);
       },
-      py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "",
-      "The camera of a sensor_msgs/CameraInfo's width, height and K (fx = K[0], fy = K[4], cx = K[2], cy = K[5]); "
-      "ValueError for K[0] = 0 (an uncalibrated camera), a zero size, non-finite values, a K not of the form "
-      "[fx s cx; 0 fy cy; 0 0 1] or a skew s that would move a pixel by a pixel or more (the ROS node's checks).");
+      py::arg("width"), py::arg("height"), py::arg("K"), py::arg("frame_id") = "", py::arg("binning_x") = 0,
+      py::arg("binning_y") = 0, py::arg("roi") = std::array<std::uint32_t, 4>{0, 0, 0, 0},
+      "The camera of the images a sensor_msgs/CameraInfo goes with: its width, height and K (fx = K[0], fy = K[4], "
+      "cx = K[2], cy = K[5]) at full resolution, taken down to its binning and roi (x_offset, y_offset, width, "
+      "height; all 0: the whole image) as REP 104 and image_geometry read them. ValueError for K[0] = 0 (an "
+      "uncalibrated camera), a zero size, non-finite values, a K not of the form [fx s cx; 0 fy cy; 0 0 1], a skew s "
+      "that would move a pixel by a pixel or more, or an roi outside the image (the ROS node's checks).");
 }
 
 void bindEncodeDepth(py::module_& m)

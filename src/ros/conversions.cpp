@@ -27,7 +27,9 @@ Camera cameraFromInfo(const sensor_msgs::CameraInfo& info)
 {
   std::array<double, 9> K;
   std::copy(info.K.begin(), info.K.end(), K.begin());
-  return cameraFromIntrinsics(info.width, info.height, K, info.header.frame_id);
+  const ImageWindow window{info.binning_x,    info.binning_y,  info.roi.x_offset,
+                           info.roi.y_offset, info.roi.width, info.roi.height};
+  return cameraFromIntrinsics(info.width, info.height, K, info.header.frame_id, window);
 }
 
 cv::Mat depthFromCompressed(const sensor_msgs::CompressedImage& image, cv::Size expected)

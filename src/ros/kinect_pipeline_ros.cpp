@@ -589,7 +589,7 @@ void KinectPipelineRos::process(const Input& in)
   {
     std::ostringstream m;
     m << "depth image is " << depth.cols << "x" << depth.rows << " but its camera_info says " << cam.width << "x"
-      << cam.height;
+      << cam.height << " (its roi and binning applied)";
     return drop(DropReason::kSize, m.str());
   }
 

@@ -244,6 +244,35 @@ def test_compressed_depth_is_decoded_and_bad_payloads_are_dropped(
     assert lines(log, "frame dropped (bad compressedDepth payload)")
 
 
+@pytest.mark.parametrize(("kind", "window"), [("node", (2, 2, 0, 0, 0, 0)), ("nodelet", (2, 3, 37, 20, 440, 390))])
+def test_a_crop_decimate_camera_info_gives_the_windows_camera(
+    ros: RosGraph, tmp_path: Path, kind: str, window: tuple[int, ...]
+) -> None:
+    """Images as image_proc's crop_decimate sends them: the camera_info's size and K at full resolution, its binning
+    and roi set (REP 104). Before, every such frame was dropped for its size."""
+    manager = manager_args(ros, kind)
+    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
+    ros.launch(
+        "launch",
+        "kinect_pipeline.launch",
+        "pose_source:=static",
+        f"sensor_pitch:={TILT}",
+        f"params:={params}",
+        *manager,
+    )
+    res = ros.feed("feed", "--noise-free", "--window", ",".join(map(str, window)), "--until", "len(scans) >= 3")
+    bx, by, x, y, w, h = window
+    k = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
+    cam = kp._core.camera_from_intrinsics(CAM.width, CAM.height, k, "", binning_x=bx, binning_y=by, roi=(x, y, w, h))
+    w, h = (w, h) if w else (CAM.width, CAM.height)
+    part = np.ascontiguousarray(frame()[y : y + h - h % by : by, x : x + w - w % bx : bx])
+    assert part.shape == (cam.height, cam.width)
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, refine_floor=False))
+    want = np.asarray(pipe.process(part).ranges, np.float32)
+    assert len(res["scans"]) >= 3 and all(same(s, want) for s in res["scans"]), "a scan differs from the core's"
+    assert not int(newest(res, PROC, "dropped: image size differs from camera_info") or 0)
+
+
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_a_transport_that_cannot_be_loaded_is_one_clear_error(ros: RosGraph, kind: str) -> None:
     manager = manager_args(ros, kind)

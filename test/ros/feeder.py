@@ -126,7 +126,20 @@ class Recorder:
 def frames_for(args: argparse.Namespace, scene_name: str) -> list[np.ndarray]:
     h, p, r = triple(args.render)
     seeds = [None] if args.noise_free else list(range(args.variants))
-    return [render_frame(CAM, SCENES[scene_name](), h, p, r, args.encoding, seed=s).depth for s in seeds]
+    frames = [render_frame(CAM, SCENES[scene_name](), h, p, r, args.encoding, seed=s).depth for s in seeds]
+    return [window_of(d, window(args)) for d in frames]
+
+
+def window(args: argparse.Namespace) -> tuple[int, ...]:
+    """--window as binning_x, binning_y, x_offset, y_offset, width, height (all six 0 without it)."""
+    return tuple(int(v) for v in args.window.split(",")) if args.window else (0,) * 6
+
+
+def window_of(depth: np.ndarray, w: tuple[int, ...]) -> np.ndarray:
+    """What image_proc's crop_decimate sends of a full frame: the roi, every binning-th column and row."""
+    bx, by, x, y, rw, rh = max(w[0], 1), max(w[1], 1), *w[2:]
+    rw, rh = (rw, rh) if rw else (depth.shape[1], depth.shape[0])
+    return np.ascontiguousarray(depth[y : y + rh - rh % by : by, x : x + rw - rw % bx : bx])
 
 
 def parse_args() -> argparse.Namespace:
@@ -153,6 +166,11 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--clock", type=float, default=None, help="publish /clock from this time [s]")
     ap.add_argument("--clock-jump", default=None, help="FRAME:T: at that frame the clock starts again from T")
     ap.add_argument("--switch-scene", default=None, help="SCENE:EXPR: render SCENE once EXPR holds")
+    ap.add_argument(
+        "--window",
+        default=None,
+        help="BX,BY,X,Y,W,H: send that window of each frame, as crop_decimate does (camera_info at full resolution)",
+    )
     return ap.parse_args()
 
 
@@ -262,6 +280,9 @@ class Feeder:
         info.width, info.height = CAM.width, CAM.height
         info.K = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
         info.P = [CAM.fx, 0, CAM.cx, 0, 0, CAM.fy, CAM.cy, 0, 0, 0, 1, 0]
+        w = window(args)
+        info.binning_x, info.binning_y = w[0], w[1]
+        info.roi.x_offset, info.roi.y_offset, info.roi.width, info.roi.height = w[2:]
         msg = self.image(i, info.header)
         self.info_pub.publish(info)
         if self.image_pub is not None:

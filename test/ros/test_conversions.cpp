@@ -94,6 +94,64 @@ TEST(Conversions, CameraFromInfoRefusesAMatrixItWouldMisread)
   EXPECT_NE(n.find("0, 0, 0]"), std::string::npos) << n;
 }
 
+// REP 104, as image_geometry reads it: the image is the roi of the full-resolution image K describes, subsampled by
+// the binning (image_proc's crop_decimate sends its images this way, K and size left at full resolution).
+TEST(Conversions, CameraFromInfoTakesItsRoiAndBinning)
+{
+  auto decimated = info();
+  decimated.binning_x = decimated.binning_y = 2;  // roi all 0: the whole image
+  Camera c = cameraFromInfo(decimated);
+  EXPECT_EQ(c.width, 256);
+  EXPECT_EQ(c.height, 212);
+  EXPECT_DOUBLE_EQ(c.fx, 182.5);
+  EXPECT_DOUBLE_EQ(c.fy, 183.0);
+  EXPECT_DOUBLE_EQ(c.cx, 127.75);
+  EXPECT_DOUBLE_EQ(c.cy, 105.75);
+  auto cropped = info();
+  cropped.binning_x = 1;  // 0 and 1: every pixel
+  cropped.roi.x_offset = 100;
+  cropped.roi.y_offset = 50;
+  cropped.roi.width = 301;
+  cropped.roi.height = 201;
+  c = cameraFromInfo(cropped);
+  EXPECT_EQ(c.width, 301);
+  EXPECT_EQ(c.height, 201);
+  EXPECT_DOUBLE_EQ(c.fx, 365.0);
+  EXPECT_DOUBLE_EQ(c.cx, 155.5);
+  EXPECT_DOUBLE_EQ(c.cy, 161.5);
+  cropped.binning_x = 2;
+  cropped.binning_y = 3;
+  c = cameraFromInfo(cropped);
+  EXPECT_EQ(c.width, 150);  // rounded down, as crop_decimate sends it
+  EXPECT_EQ(c.height, 67);
+  EXPECT_DOUBLE_EQ(c.cx, 77.75);
+  EXPECT_DOUBLE_EQ(c.fy, 122.0);
+  EXPECT_DOUBLE_EQ(c.cy, 161.5 / 3);
+  // The skew is held to the image's own pixels: 1.16 full-resolution pixels are 0.58 binned ones.
+  decimated.K[1] = 2.0;
+  EXPECT_DOUBLE_EQ(cameraFromInfo(decimated).fx, 182.5);
+}
+
+TEST(Conversions, CameraFromInfoRefusesAWindowOutsideTheImage)
+{
+  auto outside = info();
+  outside.roi.x_offset = 300;
+  outside.roi.width = 300;
+  outside.roi.height = 100;
+  std::string m = message([&] { cameraFromInfo(outside); });
+  EXPECT_NE(m.find("roi (x_offset 300, y_offset 0, width 300, height 100)"), std::string::npos) << m;
+  EXPECT_NE(m.find("expected an roi inside the camera_info's 512x424"), std::string::npos) << m;
+  auto flat = info();
+  flat.roi.y_offset = 10;
+  flat.roi.height = 100;
+  m = message([&] { cameraFromInfo(flat); });
+  EXPECT_NE(m.find("non-zero width and height, or all four 0"), std::string::npos) << m;
+  auto coarse = info();
+  coarse.binning_x = 600;
+  m = message([&] { cameraFromInfo(coarse); });
+  EXPECT_NE(m.find("binning 600x0: expected a binning no larger than the roi"), std::string::npos) << m;
+}
+
 TEST(Conversions, DepthImagesAreViewedInPlace)
 {
   for (auto [encoding, type, elem] : {std::tuple{"16UC1", CV_16UC1, 2}, {"mono16", CV_16UC1, 2}, {"32FC1", CV_32FC1, 4},

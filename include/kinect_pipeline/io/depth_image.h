@@ -44,15 +44,28 @@ bool isSupportedDepthEncoding(const std::string& encoding);
 cv::Mat depthFromBuffer(const ImageBuffer& image, cv::Mat& buffer);
 
 /**
- * @brief Camera model from a CameraInfo's size and K (row-major 3x3): fx = K[0], fy = K[4], cx = K[2], cy = K[5]
- *        (rectified depth).
+ * The part of the full-resolution image a CameraInfo's K describes that the image holds (REP 104): its region of
+ * interest, subsampled by binning_x and binning_y. image_proc's crop_decimate, for one, sends its images this way,
+ * with the camera_info's width, height and K left at full resolution.
+ */
+struct ImageWindow
+{
+  std::uint32_t binning_x = 0, binning_y = 0;  ///< 0 and 1: every pixel
+  std::uint32_t x_offset = 0, y_offset = 0;    ///< the ROI's first column and row [full-resolution px]
+  std::uint32_t width = 0, height = 0;         ///< the ROI's size [full-resolution px]; all four 0: the whole image
+};
+
+/**
+ * @brief Camera model from a CameraInfo's size, K (row-major 3x3) and window: fx = K[0], fy = K[4], cx = K[2],
+ *        cy = K[5] (rectified depth) at full resolution; with a binning b or an ROI, the image's own camera has
+ *        fx / b, (cx - x_offset) / b and the size ROI / b (rounded down), as image_geometry's PinholeCameraModel.
  * @param frame_id the camera_info's frame, quoted in the message for K[0] = 0
  * @throw std::invalid_argument for K[0] = 0 (an uncalibrated camera), a zero size, non-finite values, a K not of
- *        the form [fx s cx; 0 fy cy; 0 0 1], or a skew s that would move a pixel by a pixel or more (the camera has
- *        no skew), quoting them.
+ *        the form [fx s cx; 0 fy cy; 0 0 1], a skew s that would move a pixel by a pixel or more (the camera has
+ *        no skew), or an ROI outside the image or with one side 0 but not all four, quoting them.
  */
 Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
-                            const std::string& frame_id);
+                            const std::string& frame_id, const ImageWindow& window = {});
 
 /** @return true where the host stores multi-byte values most significant byte first. */
 bool hostIsBigEndian();

@@ -26,9 +26,9 @@ namespace conversions
 {
 
 /**
- * @brief Camera model from a CameraInfo: fx = K[0], fy = K[4], cx = K[2], cy = K[5] (rectified depth).
- * @throw std::invalid_argument for K[0] = 0 (an uncalibrated camera), a zero size or non-finite values,
- *        quoting them.
+ * @brief Camera model of the images a CameraInfo goes with: its K (fx = K[0], fy = K[4], cx = K[2], cy = K[5],
+ *        rectified depth) taken down to its ROI and binning (REP 104), by cameraFromIntrinsics (io/depth_image.h).
+ * @throw std::invalid_argument for what cameraFromIntrinsics refuses, quoting the values.
  */
 Camera cameraFromInfo(const sensor_msgs::CameraInfo& info);
 

@@ -22,8 +22,17 @@ bool isSupportedDepthEncoding(const std::string& e)
   return e == "8UC1" || e == "mono8" || e == "16UC1" || e == "mono16" || e == "32FC1";
 }
 
-Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
-                            const std::string& frame_id)
+namespace
+{
+[[noreturn]] void badWindow(const ImageWindow& w, const std::string& expected)
+{
+  std::ostringstream s;
+  s << "camera_info roi (x_offset " << w.x_offset << ", y_offset " << w.y_offset << ", width " << w.width
+    << ", height " << w.height << "), binning " << w.binning_x << "x" << w.binning_y << ": expected " << expected;
+  throw std::invalid_argument(s.str());
+}
+
+void checkK(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K, const std::string& frame_id)
 {
   if (K[0] == 0.0)
   {
@@ -46,17 +55,49 @@ Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std
     s << "]: expected a pinhole camera's [fx s cx; 0 fy cy; 0 0 1] (K[3], K[6], K[7] = 0 and K[8] = 1)";
     throw std::invalid_argument(s.str());
   }
+}
+
+// The window with its binning at least 1 and its ROI the whole image where all four are 0 (REP 104), checked.
+ImageWindow resolved(std::uint32_t width, std::uint32_t height, const ImageWindow& w)
+{
+  ImageWindow r = w;
+  r.binning_x = std::max(w.binning_x, 1u);
+  r.binning_y = std::max(w.binning_y, 1u);
+  if (w.x_offset == 0 && w.y_offset == 0 && w.width == 0 && w.height == 0)
+  {
+    r.width = width;
+    r.height = height;
+  }
+  else if (w.width == 0 || w.height == 0)
+    badWindow(w, "an roi of non-zero width and height, or all four 0 (the whole image)");
+  if (std::uint64_t{r.x_offset} + r.width > width || std::uint64_t{r.y_offset} + r.height > height)
+    badWindow(w, "an roi inside the camera_info's " + std::to_string(width) + "x" + std::to_string(height));
+  if (r.width / r.binning_x == 0 || r.height / r.binning_y == 0)
+    badWindow(w, "a binning no larger than the roi (at least one pixel)");
+  return r;
+}
+}  // namespace
+
+Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
+                            const std::string& frame_id, const ImageWindow& window)
+{
+  checkK(width, height, K, frame_id);
+  // The image's pixel j is the full image's column x_offset + b j (image_geometry's reading of REP 104).
+  const ImageWindow w = resolved(width, height, window);
+  const double bx = w.binning_x, by = w.binning_y;
   // Camera's constructor checks the rest (fy > 0, finite values) and names the field.
-  const Camera cam(static_cast<int>(width), static_cast<int>(height), K[0], K[4], K[2], K[5]);
+  const Camera cam(static_cast<int>(w.width / w.binning_x), static_cast<int>(w.height / w.binning_y), K[0] / bx,
+                   K[4] / by, (K[2] - w.x_offset) / bx, (K[5] - w.y_offset) / by);
   // The core's camera has no skew (K[1]): taken without it, a pixel's column is off by skew (v - cy) / fy, which
   // must stay under a pixel (a calibration's skew of a few hundredths moves none).
+  const double skew = K[1] / bx;
   const double rows = std::max(std::fabs(cam.cy), std::fabs(cam.height - 1 - cam.cy));  // pixel centres
-  if (!(std::fabs(K[1]) * rows / cam.fy < 1.0))
+  if (!(std::fabs(skew) * rows / cam.fy < 1.0))
   {
     std::ostringstream s;
     s << "camera_info K[1] (skew) = " << K[1] << ": without it (this package's camera has none) the rows farthest "
-      << "from cy = " << cam.cy << " would be " << std::fabs(K[1]) * rows / cam.fy << " px off; expected |skew| < "
-      << cam.fy / rows << " (under a pixel)";
+      << "from cy = " << cam.cy << " would be " << std::fabs(skew) * rows / cam.fy << " px off; expected |skew| < "
+      << cam.fy / rows * bx << " (under a pixel)";
     throw std::invalid_argument(s.str());
   }
   return cam;

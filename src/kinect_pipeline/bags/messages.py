@@ -46,10 +46,19 @@ def intrinsics_matrix(info: Any) -> list[float]:
 
 
 def camera_from_info(info: Any) -> Any:
-    """The core's camera of a CameraInfo (the node's checks: K[0] = 0 is an uncalibrated camera)."""
+    """The core's camera of the images a CameraInfo goes with, its ROI and binning applied (the node's checks: K[0] =
+    0 is an uncalibrated camera)."""
+    roi = getattr(info, "roi", None)  # every CameraInfo has it; a message-like object may not
+    window = (0, 0, 0, 0) if roi is None else (int(roi.x_offset), int(roi.y_offset), int(roi.width), int(roi.height))
     try:
         return _core.camera_from_intrinsics(
-            int(info.width), int(info.height), intrinsics_matrix(info), info.header.frame_id
+            int(info.width),
+            int(info.height),
+            intrinsics_matrix(info),
+            info.header.frame_id,
+            binning_x=int(getattr(info, "binning_x", 0)),
+            binning_y=int(getattr(info, "binning_y", 0)),
+            roi=window,
         )
     except ValueError as exc:
         raise BagError(str(exc)) from exc

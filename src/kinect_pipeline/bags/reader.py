@@ -300,7 +300,7 @@ class Cameras:
                 if (cam.width, cam.height) != (width, height):  # the core would refuse the frame
                     raise BagError(
                         f"the image is {width}x{height} but its camera_info on {self.infos.topic} is "
-                        f"{cam.width}x{cam.height}: expected one size (binning and ROI are not applied)"
+                        f"{cam.width}x{cam.height} (its roi and binning applied): expected one size"
                     )
                 return cam, note
             if self.sensor_model:
