@@ -15,6 +15,7 @@ from . import _core
 from ._core import (
     Camera,
     Config,
+    DepthRectifier,
     Pipeline,
     Result,
     add_kinect_noise,
@@ -50,6 +51,7 @@ __all__ = [
     "LABELS",
     "Camera",
     "Config",
+    "DepthRectifier",
     "Pipeline",
     "Result",
     "add_kinect_noise",

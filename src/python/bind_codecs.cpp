@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -14,6 +15,7 @@
 #include "bind.h"
 #include "kinect_pipeline/io/compressed_depth.h"
 #include "kinect_pipeline/io/depth_image.h"
+#include "kinect_pipeline/io/rectify.h"
 #include "kinect_pipeline/model/encoding.h"
 #include "kinect_pipeline/tools/synthetic.h"
 
@@ -73,6 +75,63 @@ void bindMessages(py::module_& m)
       "height; all 0: the whole image) as REP 104 and image_geometry read them. ValueError for K[0] = 0 (an "
       "uncalibrated camera), a zero size, non-finite values, a K not of the form [fx s cx; 0 fy cy; 0 0 1], a skew s "
       "that would move a pixel by a pixel or more, or an roi outside the image (the ROS node's checks).");
+}
+
+void bindRectifier(py::module_& m)
+{
+  py::class_<DepthRectifier>(m, "DepthRectifier",
+                             "A raw depth image to the rectified one of the same camera matrix, by a "
+                             "sensor_msgs/CameraInfo's distortion_model and D (io/rectify.h): each pixel the raw "
+                             "pixel nearest to where its ray meets the raw image (depth is never blended), 0 where "
+                             "that lies outside it.")
+      .def(py::init<const Camera&, const std::string&, const std::vector<double>&>(), py::arg("camera"),
+           py::arg("distortion_model"), py::arg("D"),
+           "camera: the image's (its binning and roi applied); distortion_model 'plumb_bob' (D: k1 k2 p1 p2 [k3]), "
+           "'rational_polynomial' (8) or 'equidistant' (4); any model with D all 0 is no distortion. ValueError "
+           "for another model or length, naming them.")
+      .def_property_readonly("identity", &DepthRectifier::identity, "No distortion: apply() copies.")
+      .def_property_readonly("max_shift", &DepthRectifier::maxShift, "The farthest any pixel moves [px].")
+      .def_property_readonly("outside", &DepthRectifier::outside,
+                             "The fraction of the rectified image whose rays meet the raw image outside it.")
+      .def(
+          "apply",
+          [](const DepthRectifier& r, const py::object& depth) {
+            py::object keep;
+            const cv::Mat raw = asMat(depth, "depth", keep);
+            cv::Mat out;
+            r.apply(raw, out);
+            return matToArray(out);
+          },
+          py::arg("depth"), "The rectified image of a raw depth image (uint8, uint16 or float32) as a new array.");
+  py::class_<TopicRectification>(m, "TopicRectification",
+                                 "The rectification of one topic's frames, as the node and the bag tools do it: "
+                                 "decided anew, and its maps built, only where the mode, camera or distortion "
+                                 "changed.")
+      .def(py::init<>())
+      .def(
+          "apply",
+          [](TopicRectification& r, const std::string& mode, const std::string& topic, const Camera& camera,
+             const std::string& model, const std::vector<double>& D, const py::object& depth) {
+            py::object keep;
+            const cv::Mat raw = asMat(depth, "depth", keep);
+            const cv::Mat& out = r.apply(mode, topic, camera, model, D, raw);
+            return out.data == raw.data ? py::object(depth) : py::object(matToArray(out));
+          },
+          py::arg("mode"), py::arg("image_topic"), py::arg("camera"), py::arg("distortion_model"), py::arg("D"),
+          py::arg("depth"),
+          "The image to process: depth itself, or its rectified image (a new array). ValueError for a bad mode or "
+          "a distortion it would need and cannot take.")
+      .def_property_readonly("why", &TopicRectification::why, "What decided the last frame's rectification.");
+  m.def(
+      "rectify_wanted",
+      [](const std::string& mode, const std::string& image_topic, const DepthRectifier& r) {
+        std::string why;
+        const bool yes = rectifyWanted(mode, image_topic, r, why);
+        return py::make_tuple(yes, why);
+      },
+      py::arg("mode"), py::arg("image_topic"), py::arg("rectifier"),
+      "(whether, why): the images on image_topic are rectified before the pipeline, by mode 'true', 'false' or "
+      "'auto' (unless the topic's last name holds 'rect', as ROS names rectified images); the node's rule.");
 }
 
 void bindEncodeDepth(py::module_& m)
@@ -164,6 +223,7 @@ void bindCompressedDepth(py::module_& m)
 void bindCodecs(py::module_& m)
 {
   bindMessages(m);
+  bindRectifier(m);
   bindEncodeDepth(m);
   bindCompressedDepth(m);
 }

@@ -87,6 +87,7 @@ void KinectPipelineRos::diagnose(diagnostic_updater::DiagnosticStatusWrapper& st
   stat.add("camera_info paired: latest (stamps differ, camera unchanged)", static_cast<unsigned long long>(paired_latest_));
   stat.add("camera from parameters (frames)", static_cast<unsigned long long>(paired_param_));
   stat.add("camera from", camera_from_.empty() ? std::string("(no frame yet)") : camera_from_);
+  stat.add("rectified", rectified_.empty() ? std::string("(no frame yet)") : rectified_);
   stat.add("SIMD target", simdTarget());  // kinect_pipeline/simd.h; KINECT_PIPELINE_SIMD restricts it
   for (int i = 0; i < static_cast<int>(DropReason::kCount); ++i)
     stat.add(std::string("dropped: ") + toString(static_cast<DropReason>(i)), static_cast<unsigned long long>(drops_[i]));

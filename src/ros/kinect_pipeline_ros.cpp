@@ -592,6 +592,8 @@ void KinectPipelineRos::process(const Input& in)
       << cam.height << " (its roi and binning applied)";
     return drop(DropReason::kSize, m.str());
   }
+  if (!rectify(s, *in.info, cam, depth))
+    return;
 
   FramePose pose;
   tf_wait_ms_ = 0.0;
@@ -622,6 +624,29 @@ void KinectPipelineRos::process(const Input& in)
   broadcastScanFrame(s, in.header, pose);
   ++frames_out_;
   record(pose.pose, msSince(t0));
+}
+
+bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, const Camera& cam,
+                                cv::Mat& depth)
+{
+  try
+  {
+    depth = rectification_.apply(s.rectify, image_topic_, cam, info.distortion_model, info.D, depth);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    drop(DropReason::kCameraInfo, std::string(e.what()) + " to rectify the images (~rectify " + s.rectify +
+                                      "; false if they are rectified already)");
+    return false;
+  }
+  if (rectification_.decidedAnew())
+  {
+    ROS_INFO("%s: the images on %s rectified (camera_info distortion_model '%s', ~rectify %s): %s", name_.c_str(),
+             image_topic_.c_str(), info.distortion_model.c_str(), s.rectify.c_str(), rectification_.why().c_str());
+    std::lock_guard<std::mutex> stats(stats_mutex_);
+    rectified_ = rectification_.why();
+  }
+  return true;
 }
 
 void KinectPipelineRos::publish(const NodeSettings& s, const Input& in, const std::string& encoding)

@@ -273,6 +273,40 @@ def test_a_crop_decimate_camera_info_gives_the_windows_camera(
     assert not int(newest(res, PROC, "dropped: image size differs from camera_info") or 0)
 
 
+@pytest.mark.parametrize(("kind", "image"), [("node", "sd/image_depth"), ("nodelet", "sd/image_depth_rect")])
+def test_a_raw_topic_is_rectified_by_its_camera_infos_distortion(
+    ros: RosGraph, tmp_path: Path, kind: str, image: str
+) -> None:
+    """kinect2_bridge's sd/image_depth is raw, its sd/image_depth_rect rectified, both with the IR lens's D."""
+    manager = manager_args(ros, kind)
+    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
+    ros.launch(
+        "launch",
+        "kinect_pipeline.launch",
+        f"image:={image}",
+        "pose_source:=static",
+        f"sensor_pitch:={TILT}",
+        f"params:={params}",
+        *manager,
+    )
+    D = [0.0905, -0.2699, 0.0, 0.0, 0.0952]
+    until = "len(scans) >= 3 and diag('rectified', 'processing') not in (None, '(no frame yet)')"
+    res = ros.feed("feed", "--noise-free", "--image", image, "--distortion", ",".join(map(str, D)), "--until", until)
+    raw = image.endswith("image_depth")
+    said = newest(res, PROC, "rectified") or ""
+    assert said.startswith("yes (pixels move up to" if raw else "no (the topic's name says"), said
+    depth = kp.DepthRectifier(CAM, "plumb_bob", D).apply(frame()) if raw else frame()
+    want = core_ranges(depth, TILT)
+    assert len(res["scans"]) >= 3 and all(same(s, want) for s in res["scans"]), "a scan differs from the core's"
+    said_once = [
+        m["msg"]
+        for m in res["logs"]
+        if f"the images on /kinect2/{image} rectified (camera_info distortion_model 'plumb_bob', ~rectify auto): "
+        in m["msg"]
+    ]
+    assert len(said_once) == 1, said_once
+
+
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_a_transport_that_cannot_be_loaded_is_one_clear_error(ros: RosGraph, kind: str) -> None:
     manager = manager_args(ros, kind)

@@ -166,6 +166,7 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--clock", type=float, default=None, help="publish /clock from this time [s]")
     ap.add_argument("--clock-jump", default=None, help="FRAME:T: at that frame the clock starts again from T")
     ap.add_argument("--switch-scene", default=None, help="SCENE:EXPR: render SCENE once EXPR holds")
+    ap.add_argument("--distortion", default=None, help="K1,K2,P1,P2,K3: the camera_info's plumb_bob D (default: 0)")
     ap.add_argument(
         "--window",
         default=None,
@@ -280,6 +281,8 @@ class Feeder:
         info.width, info.height = CAM.width, CAM.height
         info.K = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
         info.P = [CAM.fx, 0, CAM.cx, 0, 0, CAM.fy, CAM.cy, 0, 0, 0, 1, 0]
+        if args.distortion:
+            info.distortion_model, info.D = "plumb_bob", [float(v) for v in args.distortion.split(",")]
         w = window(args)
         info.binning_x, info.binning_y = w[0], w[1]
         info.roi.x_offset, info.roi.y_offset, info.roi.width, info.roi.height = w[2:]

@@ -28,6 +28,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include "kinect_pipeline/KinectPipelineConfig.h"
+#include "kinect_pipeline/io/rectify.h"
 #include "kinect_pipeline/pipeline.h"
 #include "kinect_pipeline/ros/camera_info_pairing.h"
 #include "kinect_pipeline/ros/master_reconnect.h"
@@ -147,6 +148,8 @@ private:
   bool fallback(const NodeSettings& s, const std_msgs::Header& header, const std::string& why, FramePose& pose);
   void warnIfStaticDisagrees(const NodeSettings& s, const SensorPose& fixed);
   void broadcastScanFrame(const NodeSettings& s, const std_msgs::Header& header, const FramePose& pose);
+  /** The image rectified by ~rectify (TopicRectification); false: dropped (a distortion it cannot take). */
+  bool rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, const Camera& cam, cv::Mat& depth);
   void publish(const NodeSettings& s, const Input& in, const std::string& encoding);
   void record(const SensorPose& prior, double ms);
 
@@ -191,6 +194,7 @@ private:
   FramePipeline pipeline_;
   FrameResult result_;
   cv::Mat swap_buffer_;
+  TopicRectification rectification_;
   Camera camera_;
   std::optional<GoodPose> last_good_;
   bool static_warned_ = false;       // the static pose's disagreement with tf was said in this fallback
@@ -221,6 +225,7 @@ private:
   // camera_info: images that came while none had come (and no camera from parameters), and how frames were paired.
   std::uint64_t images_without_info_ = 0, infos_in_ = 0, paired_exact_ = 0, paired_latest_ = 0, paired_param_ = 0;
   std::string camera_from_;               // where the last frame's camera came from
+  std::string rectified_;                 // whether and why the frames are rectified (TopicRectification::why)
   ros::WallTime first_without_info_, last_wait_warning_, started_;
   std::string last_problem_;
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0, last_wait_ms_ = 0.0, max_wait_ms_ = 0.0;

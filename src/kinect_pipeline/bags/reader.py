@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import _core
 from ..intrinsics import HOW, Intrinsics, IntrinsicsError, nominal_camera
 from ..outputs import progress
 from .messages import (
@@ -272,12 +273,15 @@ class Cameras:
         intrinsics: Intrinsics | None = None,
         sensor_model: str | None = None,
         on_damage: Callable[[Damage], None] | None = None,
+        rectify: str = "auto",
     ) -> None:
         self.intrinsics, self.sensor_model = intrinsics, sensor_model
         use_info = info_topic is not None and intrinsics is None
         self.infos = CameraInfos(bag, info_topic, on_damage) if use_info and info_topic else None
         self.warning = ""  #: the nominal camera is a guess: said once
-        self.source = (
+        #: auto | true | false: images rectified by their camera_info's distortion (the node's ~rectify)
+        self.rectify, self.rectification = rectify, _core.TopicRectification()
+        self.given = (
             f"intrinsics from {intrinsics.source}"
             if intrinsics is not None
             else f"camera_info on {info_topic}"
@@ -287,13 +291,20 @@ class Cameras:
             else "none"
         )
 
-    def for_frame(self, msg: Any, depth: np.ndarray) -> tuple[Any, str]:
-        """The camera of a depth message whose image is ``depth``, and a note where its camera_info is not of its
-        own stamp (:meth:`CameraInfos.for_stamp`)."""
+    @property
+    def source(self) -> str:
+        """Where the cameras come from, and whether the images are rectified (once a frame has said it)."""
+        why = self.rectification.why
+        return f"{self.given}; rectified: {why}" if why else self.given
+
+    def for_frame(self, msg: Any, depth: np.ndarray, topic: str = "") -> tuple[Any, np.ndarray, str]:
+        """The camera of a depth message on ``topic`` whose image is ``depth``, the image to process (rectified by
+        its camera_info's distortion where ``rectify`` says so, as the node does), and a note where its camera_info
+        is not of its own stamp (:meth:`CameraInfos.for_stamp`)."""
         height, width = depth.shape[:2]
         try:
             if self.intrinsics is not None:
-                return self.intrinsics.camera(width, height), ""
+                return self.intrinsics.camera(width, height), depth, ""
             if self.infos is not None and self.infos.stamps:
                 info, note = self.infos.for_stamp(stamp(msg))
                 cam = camera_from_info(info)
@@ -302,14 +313,24 @@ class Cameras:
                         f"the image is {width}x{height} but its camera_info on {self.infos.topic} is "
                         f"{cam.width}x{cam.height} (its roi and binning applied): expected one size"
                     )
-                return cam, note
+                return cam, self._rectified(info, cam, depth, topic), note
             if self.sensor_model:
                 cam, self.warning = nominal_camera(self.sensor_model, width, height)
-                return cam, ""
+                return cam, depth, ""
         except IntrinsicsError as exc:
             raise BagError(str(exc)) from exc
         where = f"no camera_info on {self.infos.topic} in the bag" if self.infos is not None else "no CameraInfo"
         raise BagError(f"{where}: give {HOW}, or --sensor-model NAME for its nominal camera")
+
+    def _rectified(self, info: Any, cam: Any, depth: np.ndarray, topic: str) -> np.ndarray:
+        model = str(getattr(info, "distortion_model", ""))
+        coefficients = [float(v) for v in (info.d if hasattr(info, "d") else getattr(info, "D", []))]
+        try:
+            return self.rectification.apply(self.rectify, topic, cam, model, coefficients, depth)
+        except ValueError as exc:
+            raise BagError(
+                f"{exc} to rectify the images (--rectify {self.rectify}; false if they are rectified)"
+            ) from exc
 
 
 def depth_frames(
@@ -335,8 +356,7 @@ def depth_frames(
         msg = bag.decode(conn, raw)
         at = stamp(msg)
         try:
-            depth = depth_array(msg)
-            cam, note = cameras.for_frame(msg, depth)
+            cam, depth, note = cameras.for_frame(msg, depth_array(msg), depth_topic)
         except BagError as exc:
             if problems is not None:
                 problems.append(f"{depth_topic} at {at:.3f} s: {exc}; frame skipped")

@@ -121,6 +121,7 @@ def _run_bag(args: argparse.Namespace) -> int:
             show_progress=not args.json,
             intrinsics=intrinsics_of(args),
             sensor_model=args.sensor_model,
+            rectify=args.rectify,
         )
     except CalibrationError as exc:
         raise ToolError(str(exc)) from exc

@@ -43,6 +43,13 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--base-frame-height", type=number(-10.0, 10.0), default=0.0, help="its origin's height above the floor [m]"
     )
+    p.add_argument(
+        "--rectify",
+        choices=["auto", "true", "false"],
+        default="auto",
+        help="rectify the depth images by their camera_info's distortion: auto (unless the depth topic's name holds "
+        "'rect'), true or false (default: auto, as the node)",
+    )
 
 
 def add_pose_fallback(p: argparse.ArgumentParser) -> None:
@@ -66,6 +73,7 @@ def bag_options(args: argparse.Namespace, **more: object) -> Any:
         intrinsics=None if intr is None else intr.as_list(),
         base_frame=args.base_frame,
         base_frame_height=args.base_frame_height,
+        rectify=args.rectify,
         config=config,
         **more,  # type: ignore[arg-type]
     )

@@ -411,6 +411,7 @@ def check_tf(
     show_progress: bool = False,
     intrinsics: Any = None,
     sensor_model: str | None = None,
+    rectify: str = "auto",
 ) -> TfCheck:
     """For every depth frame of ``bag``: the optical frame's pose in ``base_frame`` that tf gives at the frame's
     stamp, and the pose of the floor fitted in that frame (the core's ``calibrate_from_floor``); their differences
@@ -436,7 +437,7 @@ def check_tf(
     try:
         need_info = intrinsics is None and not sensor_model
         depth_topic, info_topic = pick_topics(list(reader.connections), depth_topic, info_topic, need_info)
-        cameras = Cameras(reader, info_topic, intrinsics, sensor_model)
+        cameras = Cameras(reader, info_topic, intrinsics, sensor_model, rectify=rectify)
         tf = read_tf(reader)
         progress = "calibrate" if show_progress else None
         for img, cam, depth in depth_frames(reader, depth_topic, cameras, progress, problems):

@@ -233,6 +233,7 @@ class FleetOptions:
             "base_frame_height": r.base_frame_height,
             "pose_fallback": r.pose_fallback,
             "skip_bad": r.skip_bad,
+            "rectify": r.rectify,
             "intrinsics": self.intrinsics,
             "sensor_model": self.sensor_model,
             "depth_scale": self.depth_scale,

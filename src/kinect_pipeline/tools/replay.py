@@ -58,11 +58,13 @@ class ReplayOptions:
     #: fx, fy, cx, cy [px] (and width, height; 0: the images'): the depth camera where the bag has no CameraInfo
     #: (they win over one it has); without them and without a camera_info, config's sensor_model's nominal camera
     intrinsics: list[float] | None = None
+    #: images rectified by their camera_info's distortion: auto (unless the topic's name holds "rect"), true, false
+    rectify: str = "auto"
 
     def cameras(self, bag: BagReader, info_topic: str | None, on_damage: Any = None) -> Cameras:
         """Where each frame's camera comes from (:class:`kinect_pipeline.bags.Cameras`)."""
         intr = None if self.intrinsics is None else Intrinsics.from_list(self.intrinsics)
-        return Cameras(bag, info_topic, intr, self.config.get("sensor_model"), on_damage)
+        return Cameras(bag, info_topic, intr, self.config.get("sensor_model"), on_damage, self.rectify)
 
     def topics(self, bag: BagReader) -> tuple[str, str | None]:
         """The depth topic and its camera_info topic (None where the intrinsics come from elsewhere)."""
@@ -138,12 +140,13 @@ class _Frames:
         if note:
             self.report.problems.append(f"{self.depth_topic} at {at:.3f} s: {what}")
 
-    def _camera(self, img: Any, depth: Any, note: bool) -> Any:
-        cam, why = self.cameras.for_frame(img, depth)
+    def _camera(self, img: Any, note: bool) -> tuple[Any, Any]:
+        """The frame's camera and the image to process (rectified where the camera_info says so)."""
+        cam, depth, why = self.cameras.for_frame(img, depth_array(img), self.depth_topic)
         if why and note and not self.info_notes:
             self.info_notes.add(why)
             self._note(stamp(img), f"{why} (and maybe for later frames)", note)
-        return cam
+        return cam, depth
 
     def _use(self, cam: Any) -> None:
         if self.camera is None or repr(cam) != repr(self.camera):
@@ -155,8 +158,7 @@ class _Frames:
         """The core's result for a depth message at the tf pose of its stamp, or None when the frame is skipped."""
         at = stamp(img)
         try:
-            depth = depth_array(img)
-            cam = self._camera(img, depth, note)
+            cam, depth = self._camera(img, note)
         except BagError as exc:
             self._note(at, f"{exc}; frame skipped", note)
             return None
@@ -213,7 +215,7 @@ class _Frames:
     def processed_before(self, img: Any, floor_state: tuple[Any, ...] | None) -> None:
         """A frame whose outputs an earlier run wrote: follow the state without processing it."""
         try:
-            cam = self._camera(img, depth_array(img), note=False)
+            cam, _ = self._camera(img, note=False)
         except BagError:
             return
         self._use(cam)
@@ -470,6 +472,7 @@ class _Run:
             self.writing = True  # from here on, self.tmp is this run's (close() removes it unless kept)
             with BagWriter(self.tmp, r.format, single_file=single, name=self.out.name) as w:
                 self._write(w, show_progress)
+            r.camera = cameras.source  # now with whether the frames were rectified
         except KeyboardInterrupt:
             self.keep_partial = r.format == ROS1 and self.tmp.exists()
             raise

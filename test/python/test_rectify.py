@@ -1,0 +1,154 @@
+"""Raw depth images, rectified by their camera_info's distortion (io/rectify.h): kinect2_bridge's ``sd/image_depth``
+is raw, and a Kinect v2's lens moves its corners by about 20 px. The maps are held to OpenCV's own
+(initUndistortRectifyMap); a raw frame made with OpenCV from a rendered one shows what rectifying buys, through the
+core and through the bag tools (the node: test_ros_first_day.py)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import kinect_pipeline as kp
+from kinect_pipeline import _core
+from kinect_pipeline.simulation.scenes import FLOOR, KEPT, lab_scene, render_frame
+
+cv2 = pytest.importorskip("cv2")
+
+FX, FY, CX, CY, W, H = 365.5, 365.5, 254.9, 205.4, 512, 424
+CAM = kp.Camera(W, H, FX, FY, CX, CY)
+K = np.array([[FX, 0.0, CX], [0.0, FY, CY], [0.0, 0.0, 1.0]])
+KINECT_V2_D = [0.0905, -0.2699, 0.0, 0.0, 0.0952]  # a Kinect v2's IR lens, as libfreenect2 reads it from the device
+HEIGHT, TILT = 1.1, 0.26
+
+
+@pytest.mark.parametrize(
+    ("model", "D"),
+    [
+        ("plumb_bob", KINECT_V2_D),
+        ("plumb_bob", [0.12, -0.3, 0.002, -0.001, 0.1]),
+        ("rational_polynomial", [0.2, -0.1, 0.001, 0.002, 0.01, 0.15, -0.05, 0.005]),
+        ("equidistant", [0.1, -0.05, 0.01, 0.0]),
+    ],
+)
+def test_the_maps_are_opencvs(model: str, D: list[float]) -> None:
+    init = cv2.fisheye.initUndistortRectifyMap if model == "equidistant" else cv2.initUndistortRectifyMap
+    mx, my = init(K, np.array(D), np.eye(3), K, (W, H), cv2.CV_32FC1)
+    raw = (np.arange(W * H) % 60000 + 1).astype(np.uint16).reshape(H, W)
+    want = cv2.remap(raw, mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    r = kp.DepthRectifier(CAM, model, D)
+    got = r.apply(raw)
+    # OpenCV's maps are float32: a pixel half-way between two may round the other way.
+    assert np.mean(got != want) < 1e-4, f"{np.mean(got != want):.6f} of the pixels differ"
+    shift = np.hypot(mx - np.arange(W)[None], my - np.arange(H)[:, None]).max()
+    assert r.max_shift == pytest.approx(shift, abs=1e-3)
+
+
+def _raw_frame(seed: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(raw frame through the Kinect v2's lens, the rectified frame, the raw frame's truth objects), made with
+    OpenCV from a rendered frame of a wider pinhole camera: each raw pixel takes what its ray meets."""
+    pad = 120
+    big = kp.Camera(W + 2 * pad, H + 2 * pad, FX, FY, CX + pad, CY + pad)
+    f = render_frame(big, lab_scene(), HEIGHT, TILT, 0.0, "16UC1", seed=seed)
+    u, v = np.meshgrid(np.arange(W, dtype=np.float64), np.arange(H, dtype=np.float64))
+    rays = cv2.undistortPoints(np.stack([u.ravel(), v.ravel()], 1).reshape(-1, 1, 2), K, np.array(KINECT_V2_D))
+    mx = (rays[:, 0, 0] * FX + CX + pad).reshape(H, W).astype(np.float32)
+    my = (rays[:, 0, 1] * FY + CY + pad).reshape(H, W).astype(np.float32)
+    raw = cv2.remap(f.depth, mx, my, cv2.INTER_NEAREST, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    obj = cv2.remap(f.truth["object"].astype(np.float32), mx, my, cv2.INTER_NEAREST, borderValue=-1)
+    return raw, f.depth[pad : pad + H, pad : pad + W].copy(), obj
+
+
+def test_a_raw_kinect_v2_frame_keeps_its_floor_unless_rectified() -> None:
+    raw, rectified, obj = _raw_frame()
+    config = kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, refine_floor=False)
+    want = np.asarray(kp.Pipeline(CAM, config).process(rectified).ranges)
+    floor = (obj == FLOOR) & (raw > 0)
+    kept, near = {}, {}
+    for mode in ("false", "auto"):
+        t = _core.TopicRectification()
+        depth = t.apply(mode, "/kinect2/sd/image_depth", CAM, "plumb_bob", KINECT_V2_D, raw)
+        res = kp.Pipeline(CAM, config).process(depth)
+        got = np.asarray(res.ranges)
+        if mode == "auto":
+            floor = (_core.DepthRectifier(CAM, "plumb_bob", KINECT_V2_D).apply(obj.astype(np.float32)) == FLOOR) & (
+                depth > 0
+            )
+        kept[mode] = float(np.mean(np.asarray(res.labels)[floor] == KEPT))
+        both = np.isfinite(got) & np.isfinite(want)
+        near[mode] = float(np.mean(np.abs(got - want)[both] < 0.03))
+    assert kept["false"] > 0.02 and near["false"] < 0.9, f"taken as rectified: {kept}, {near}"
+    assert kept["auto"] < 0.001, f"floor pixels kept: {kept['auto']:.4f}"
+    assert near["auto"] > 0.97, f"beams within 3 cm of the rectified frame's: {near['auto']:.3f}"
+
+
+def _bag(path: Path, topic: str, frames: list[np.ndarray], D: list[float]) -> None:
+    """A ROS 1 bag of 16UC1 frames on ``topic`` with the Kinect v2's camera_info (plumb_bob, D)."""
+    from kinect_pipeline.bags.writer import BagWriter
+
+    w = BagWriter(path, "ros1")
+    T = w.types
+    c_img = w.add(topic, "sensor_msgs/msg/Image")
+    c_info = w.add(topic.rsplit("/", 1)[0] + "/camera_info", "sensor_msgs/msg/CameraInfo")
+    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
+    for i, px in enumerate(frames):
+        head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="kinect2_ir_optical_frame")
+        img: Any = T["sensor_msgs/msg/Image"](
+            header=head, height=H, width=W, encoding="16UC1", is_bigendian=0, step=2 * W, data=px.view(np.uint8).ravel()
+        )
+        w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
+        info: Any = T["sensor_msgs/msg/CameraInfo"](
+            header=head,
+            height=H,
+            width=W,
+            distortion_model="plumb_bob",
+            D=np.array(D),
+            K=K.ravel(),
+            R=np.eye(3).ravel(),
+            P=np.zeros(12),
+            binning_x=0,
+            binning_y=0,
+            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+        )
+        w.write(c_info, (10 + i) * 10**9 + 1, w.encode(info, "sensor_msgs/msg/CameraInfo"))
+    w.close()
+
+
+def _replay(tmp_path: Path, name: str, topic: str, frames: list[np.ndarray], rectify: str) -> tuple[Any, np.ndarray]:
+    from kinect_pipeline.bags.reader import open_bag
+    from kinect_pipeline.tools.replay import ReplayOptions, replay
+
+    _bag(tmp_path / f"{name}.bag", topic, frames, KINECT_V2_D)
+    opts = ReplayOptions(config={"sensor_height": HEIGHT, "sensor_pitch": TILT}, rectify=rectify)
+    r = replay(tmp_path / f"{name}.bag", tmp_path / f"{name}_out.bag", opts, show_progress=False)
+    with open_bag(tmp_path / f"{name}_out.bag") as b:
+        scans = [np.array(b.decode(c, raw).ranges) for c, _, raw in b.messages() if c.topic.endswith("/scan")]
+    return r, np.array(scans)
+
+
+def test_replay_rectifies_a_raw_topic_and_takes_a_rect_topic_as_it_is(tmp_path: Path) -> None:
+    pairs = [_raw_frame(seed) for seed in (0, 1)]
+    raw, rect = [p[0] for p in pairs], [p[1] for p in pairs]
+    r_rect, want = _replay(tmp_path, "rect", "/kinect2/sd/image_depth_rect", rect, "auto")
+    assert "rectified: no (the topic's name says it is rectified" in r_rect.camera, r_rect.camera
+    r_raw, got = _replay(tmp_path, "raw", "/kinect2/sd/image_depth", raw, "auto")
+    assert "rectified: yes (pixels move up to 19.8 px" in r_raw.camera, r_raw.camera
+    _, as_is = _replay(tmp_path, "as_is", "/kinect2/sd/image_depth", raw, "false")
+    both = np.isfinite(got) & np.isfinite(want)
+    assert np.mean(np.abs(got - want)[both] < 0.03) > 0.97
+    both = np.isfinite(as_is) & np.isfinite(want)
+    assert np.mean(np.abs(as_is - want)[both] < 0.03) < 0.9, "the check can fail"
+
+
+def test_a_distortion_the_tools_cannot_take_skips_the_frame_naming_it(tmp_path: Path) -> None:
+    from kinect_pipeline.tools.replay import ReplayError
+
+    with pytest.raises(ReplayError, match=r"distortion_model 'plumb_bob', D = \[0.1, 0.2\]: expected plumb_bob \(4 or"):
+        frame = np.full((H, W), 2000, np.uint16)
+        _bag(tmp_path / "in.bag", "/kinect2/sd/image_depth", [frame], [0.1, 0.2])
+        from kinect_pipeline.tools.replay import ReplayOptions, replay
+
+        replay(tmp_path / "in.bag", tmp_path / "out.bag", ReplayOptions(), show_progress=False)
+    assert not (tmp_path / "out.bag").exists()
