@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from framebag import write_frames_bag
 
 pytest.importorskip("rosbags")
 
@@ -215,38 +216,11 @@ def _bag_with_infos(path: Path, infos: list[tuple[int, float]], fx: float = 365.
 
 def _bag_of_frames(path: Path, frames: list[tuple[str, np.ndarray, tuple[int, int]]]) -> None:
     """A ROS 1 bag of depth images (encoding, pixels, camera_info's height and width), one a second from 10 s."""
-    w = BagWriter(path, "ros1")
-    T = w.types
-    c_img = w.add("/cam/depth/image_raw", "sensor_msgs/msg/Image")
-    c_info = w.add("/cam/depth/camera_info", "sensor_msgs/msg/CameraInfo")
-    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
-    for i, (encoding, px, (h, wd)) in enumerate(frames):
-        head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="cam")
-        img = T["sensor_msgs/msg/Image"](
-            header=head,
-            height=px.shape[0],
-            width=px.shape[1],
-            encoding=encoding,
-            is_bigendian=0,
-            step=px.strides[0],
-            data=px.view(np.uint8).reshape(-1),
-        )
-        w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
-        info = T["sensor_msgs/msg/CameraInfo"](
-            header=head,
-            height=h,
-            width=wd,
-            distortion_model="plumb_bob",
-            D=np.zeros(5),
-            K=np.array([365.0, 0, (wd - 1) / 2, 0, 365.0, (h - 1) / 2, 0, 0, 1.0]),
-            R=np.eye(3).reshape(-1),
-            P=np.zeros(12),
-            binning_x=0,
-            binning_y=0,
-            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
-        )
-        w.write(c_info, (10 + i) * 10**9 + 1, w.encode(info, "sensor_msgs/msg/CameraInfo"))
-    w.close()
+    infos = [
+        {"height": h, "width": w, "K": [365.0, 0, (w - 1) / 2, 0, 365.0, (h - 1) / 2, 0, 0, 1.0]}
+        for _, _, (h, w) in frames
+    ]
+    write_frames_bag(path, [px for _, px, _ in frames], infos)
 
 
 def test_a_frame_the_core_refuses_is_skipped_named_and_the_rest_replayed(tmp_path: Path) -> None:

@@ -7,10 +7,10 @@ window's pixels of a full-resolution frame are what the derived camera sees."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
+from framebag import write_frames_bag
 
 import kinect_pipeline as kp
 from kinect_pipeline import _core
@@ -59,45 +59,6 @@ def test_a_window_outside_the_image_is_named() -> None:
     assert (cam.width, cam.height, cam.fx, cam.cx) == (512, 424, 365.0, 255.5), "0 and 1: every pixel"
 
 
-def _bag(path: Path, frames: list[np.ndarray], info: dict[str, Any]) -> None:
-    """A ROS 1 bag of 16UC1 frames, one a second from 10 s, each with the camera_info ``info`` says."""
-    from kinect_pipeline.bags.writer import BagWriter
-
-    w = BagWriter(path, "ros1")
-    T = w.types
-    c_img = w.add("/cam/depth/image_raw", "sensor_msgs/msg/Image")
-    c_info = w.add("/cam/depth/camera_info", "sensor_msgs/msg/CameraInfo")
-    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
-    for i, px in enumerate(frames):
-        head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="cam")
-        img = T["sensor_msgs/msg/Image"](
-            header=head,
-            height=px.shape[0],
-            width=px.shape[1],
-            encoding="16UC1",
-            is_bigendian=0,
-            step=px.strides[0],
-            data=px.view(np.uint8).reshape(-1),
-        )
-        w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
-        x, y, rw, rh = info["roi"]
-        msg = T["sensor_msgs/msg/CameraInfo"](
-            header=head,
-            height=info["height"],
-            width=info["width"],
-            distortion_model="plumb_bob",
-            D=np.zeros(5),
-            K=np.array(info["K"], float),
-            R=np.eye(3).reshape(-1),
-            P=np.zeros(12),
-            binning_x=info["binning"][0],
-            binning_y=info["binning"][1],
-            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=x, y_offset=y, height=rh, width=rw, do_rectify=False),
-        )
-        w.write(c_info, (10 + i) * 10**9 + 1, w.encode(msg, "sensor_msgs/msg/CameraInfo"))
-    w.close()
-
-
 def _scans(bag: Path) -> list[np.ndarray]:
     from kinect_pipeline.bags.reader import open_bag
 
@@ -123,7 +84,7 @@ def test_replay_of_a_crop_decimate_bag_uses_the_windows_camera(tmp_path: Path) -
     scans = {}
     opts = ReplayOptions(config={"sensor_height": HEIGHT, "sensor_pitch": TILT})
     for name, info in bags.items():
-        _bag(tmp_path / f"{name}.bag", frames, info)
+        write_frames_bag(tmp_path / f"{name}.bag", frames, [info])
         r = replay(tmp_path / f"{name}.bag", tmp_path / f"{name}_out.bag", opts, show_progress=False)
         assert r.processed == 2 and not [p for p in r.problems if "camera_info" in p], r.problems
         scans[name] = _scans(tmp_path / f"{name}_out.bag")
@@ -138,7 +99,7 @@ def test_replay_names_a_camera_info_whose_window_is_outside_the_image(tmp_path: 
 
     frame = np.full((200, 240), 2000, np.uint16)
     info = {"width": 512, "height": 424, "K": K, "binning": (2, 2), "roi": (100, 0, 480, 400)}
-    _bag(tmp_path / "in.bag", [frame], info)
+    write_frames_bag(tmp_path / "in.bag", [frame], [info])
     with pytest.raises(ReplayError, match=r"binning 2x2: expected an roi inside the camera_info's 512x424; frame sk"):
         replay(tmp_path / "in.bag", tmp_path / "out.bag", ReplayOptions(), show_progress=False)
     assert not (tmp_path / "out.bag").exists(), "nothing written"

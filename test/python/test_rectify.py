@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from framebag import write_frames_bag
 
 import kinect_pipeline as kp
 from kinect_pipeline import _core
@@ -86,34 +87,7 @@ def test_a_raw_kinect_v2_frame_keeps_its_floor_unless_rectified() -> None:
 
 def _bag(path: Path, topic: str, frames: list[np.ndarray], D: list[float]) -> None:
     """A ROS 1 bag of 16UC1 frames on ``topic`` with the Kinect v2's camera_info (plumb_bob, D)."""
-    from kinect_pipeline.bags.writer import BagWriter
-
-    w = BagWriter(path, "ros1")
-    T = w.types
-    c_img = w.add(topic, "sensor_msgs/msg/Image")
-    c_info = w.add(topic.rsplit("/", 1)[0] + "/camera_info", "sensor_msgs/msg/CameraInfo")
-    Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
-    for i, px in enumerate(frames):
-        head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="kinect2_ir_optical_frame")
-        img: Any = T["sensor_msgs/msg/Image"](
-            header=head, height=H, width=W, encoding="16UC1", is_bigendian=0, step=2 * W, data=px.view(np.uint8).ravel()
-        )
-        w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
-        info: Any = T["sensor_msgs/msg/CameraInfo"](
-            header=head,
-            height=H,
-            width=W,
-            distortion_model="plumb_bob",
-            D=np.array(D),
-            K=K.ravel(),
-            R=np.eye(3).ravel(),
-            P=np.zeros(12),
-            binning_x=0,
-            binning_y=0,
-            roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
-        )
-        w.write(c_info, (10 + i) * 10**9 + 1, w.encode(info, "sensor_msgs/msg/CameraInfo"))
-    w.close()
+    write_frames_bag(path, frames, [{"width": W, "height": H, "K": K.ravel(), "D": D}], topic)
 
 
 def _replay(tmp_path: Path, name: str, topic: str, frames: list[np.ndarray], rectify: str) -> tuple[Any, np.ndarray]:

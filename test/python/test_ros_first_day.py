@@ -106,6 +106,22 @@ def manager_args(ros: RosGraph, kind: str) -> list[str]:
     return ["manager:=kinect2_manager"]
 
 
+def launch_exact(ros: RosGraph, tmp_path: Path, kind: str, *args: str) -> None:
+    """The launch file, node or nodelet, at the static pose the frames are rendered at, without refinement: its
+    scans are then the core's on the same frames."""
+    manager = manager_args(ros, kind)
+    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
+    ros.launch(
+        "launch",
+        "kinect_pipeline.launch",
+        "pose_source:=static",
+        f"sensor_pitch:={TILT}",
+        f"params:={params}",
+        *args,
+        *manager,
+    )
+
+
 def _has_service(ros: RosGraph, service: str) -> bool:
     try:
         ros.master().lookupService(service)
@@ -207,17 +223,7 @@ def test_missing_manager_is_a_clear_error_within_the_deadline(ros: RosGraph) -> 
 def test_compressed_depth_is_decoded_and_bad_payloads_are_dropped(
     ros: RosGraph, tmp_path: Path, kind: str, encoding: str, codec: str
 ) -> None:
-    manager = manager_args(ros, kind)
-    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
-    ros.launch(
-        "launch",
-        "kinect_pipeline.launch",
-        "image_transport:=compressedDepth",
-        "pose_source:=static",
-        f"sensor_pitch:={TILT}",
-        f"params:={params}",
-        *manager,
-    )
+    launch_exact(ros, tmp_path, kind, "image_transport:=compressedDepth")
     res = ros.feed(
         "feed",
         "--noise-free",
@@ -250,16 +256,7 @@ def test_a_crop_decimate_camera_info_gives_the_windows_camera(
 ) -> None:
     """Images as image_proc's crop_decimate sends them: the camera_info's size and K at full resolution, its binning
     and roi set (REP 104). Before, every such frame was dropped for its size."""
-    manager = manager_args(ros, kind)
-    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
-    ros.launch(
-        "launch",
-        "kinect_pipeline.launch",
-        "pose_source:=static",
-        f"sensor_pitch:={TILT}",
-        f"params:={params}",
-        *manager,
-    )
+    launch_exact(ros, tmp_path, kind)
     res = ros.feed("feed", "--noise-free", "--window", ",".join(map(str, window)), "--until", "len(scans) >= 3")
     bx, by, x, y, w, h = window
     k = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
@@ -278,17 +275,7 @@ def test_a_raw_topic_is_rectified_by_its_camera_infos_distortion(
     ros: RosGraph, tmp_path: Path, kind: str, image: str
 ) -> None:
     """kinect2_bridge's sd/image_depth is raw, its sd/image_depth_rect rectified, both with the IR lens's D."""
-    manager = manager_args(ros, kind)
-    params = yaml_file(tmp_path / "p.yaml", refine_floor=False)
-    ros.launch(
-        "launch",
-        "kinect_pipeline.launch",
-        f"image:={image}",
-        "pose_source:=static",
-        f"sensor_pitch:={TILT}",
-        f"params:={params}",
-        *manager,
-    )
+    launch_exact(ros, tmp_path, kind, f"image:={image}")
     D = [0.0905, -0.2699, 0.0, 0.0, 0.0952]
     until = "len(scans) >= 3 and diag('rectified', 'processing') not in (None, '(no frame yet)')"
     res = ros.feed("feed", "--noise-free", "--image", image, "--distortion", ",".join(map(str, D)), "--until", until)
