@@ -6,7 +6,7 @@ warning). The cameras themselves are the core's (``_core.Camera``), checked ther
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,6 +31,18 @@ class Intrinsics:
     width: int = 0
     height: int = 0
     source: str = "--intrinsics"  #: where they came from, for messages
+    distortion_model: str = ""  #: a camera_info YAML's lens (the node's ~camera_info_url takes it too)
+    D: tuple[float, ...] = ()
+
+    def distortion(self) -> list[Any] | None:
+        """[distortion_model, D...] where the lens distorts (a D not all 0), else None."""
+        return [self.distortion_model, *self.D] if any(self.D) else None
+
+    def with_distortion(self, distortion: list[Any] | None) -> Intrinsics:
+        """These intrinsics with the lens :meth:`distortion` gave (None: none)."""
+        if not distortion:
+            return self
+        return replace(self, distortion_model=str(distortion[0]), D=tuple(float(x) for x in distortion[1:]))
 
     def as_list(self) -> list[float]:
         """fx, fy, cx, cy, width, height (what a replay records of them)."""
@@ -111,11 +123,25 @@ def read_camera_info_yaml(path: Path) -> Intrinsics:
         ) from exc
     if len(k) != 9:
         raise IntrinsicsError(f"{where}: camera_matrix has {len(k)} values: expected 9 (3x3, row-major)")
-    try:  # the camera_info's own checks: a pinhole K, a skew within a pixel
-        _core.camera_from_intrinsics(max(width, 1), max(height, 1), k)
+    model, d = _distortion(doc, where)
+    try:  # the camera_info's own checks: a pinhole K, a skew within a pixel, a lens the core can take
+        cam = _core.camera_from_intrinsics(max(width, 1), max(height, 1), k)
+        _core.DepthRectifier(cam, model, list(d))
     except (ValueError, TypeError) as exc:
         raise IntrinsicsError(f"{where}: {exc}") from exc
-    return Intrinsics(k[0], k[4], k[2], k[5], width, height, where)
+    return Intrinsics(k[0], k[4], k[2], k[5], width, height, where, model, d)
+
+
+def _distortion(doc: dict[str, Any], where: str) -> tuple[str, tuple[float, ...]]:
+    """A camera_info YAML's distortion_model and distortion_coefficients (none: no distortion)."""
+    try:
+        data = (doc.get("distortion_coefficients") or {}).get("data") or []
+        return str(doc.get("distortion_model") or "plumb_bob"), tuple(float(x) for x in data)
+    except (AttributeError, TypeError, ValueError) as exc:
+        raise IntrinsicsError(
+            f"{where}: distortion_coefficients: expected {{rows: 1, cols: N, data: [k1, k2, ...]}} (as "
+            "camera_calibration writes it)"
+        ) from exc
 
 
 def nominal_camera(model: str, width: int, height: int) -> tuple[Any, str]:

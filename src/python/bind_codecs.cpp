@@ -121,7 +121,9 @@ void bindRectifier(py::module_& m)
           py::arg("depth"),
           "The image to process: depth itself, or its rectified image (a new array). ValueError for a bad mode or "
           "a distortion it would need and cannot take.")
-      .def_property_readonly("why", &TopicRectification::why, "What decided the last frame's rectification.");
+      .def_property_readonly("why", &TopicRectification::why, "What decided the last frame's rectification.")
+      .def_property_readonly("distorts", &TopicRectification::distorts,
+                             "The last frame's camera has a lens distortion the mode looked at (not with 'false').");
   m.def(
       "rectify_wanted",
       [](const std::string& mode, const std::string& image_topic, const DepthRectifier& r) {

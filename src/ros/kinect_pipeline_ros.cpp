@@ -641,8 +641,9 @@ bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::Camera
   }
   if (rectification_.decidedAnew())
   {
-    ROS_INFO("%s: the images on %s rectified (camera_info distortion_model '%s', ~rectify %s): %s", name_.c_str(),
-             image_topic_.c_str(), info.distortion_model.c_str(), s.rectify.c_str(), rectification_.why().c_str());
+    if (rectification_.distorts())
+      ROS_INFO("%s: the images on %s rectified (camera_info distortion_model '%s', ~rectify %s): %s", name_.c_str(),
+               image_topic_.c_str(), info.distortion_model.c_str(), s.rectify.c_str(), rectification_.why().c_str());
     std::lock_guard<std::mutex> stats(stats_mutex_);
     rectified_ = rectification_.why();
   }

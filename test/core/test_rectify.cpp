@@ -168,9 +168,14 @@ TEST(Rectify, ATopicsRectificationIsDecidedAgainOnlyWhenSomethingChanged)
   EXPECT_NE(a.data, raw.data);
   t.apply("auto", "/k/image_depth", kCam, "plumb_bob", D, raw);
   EXPECT_FALSE(t.decidedAnew());
+  EXPECT_TRUE(t.distorts());
+  t.apply("auto", "/k/image_depth_rect", kCam, "plumb_bob", D, raw);
+  EXPECT_TRUE(t.decidedAnew());
+  EXPECT_TRUE(t.distorts()) << "a lens, though not rectified here";
   const cv::Mat& b = t.apply("false", "/k/image_depth", kCam, "plumb_bob", D, raw);
   EXPECT_TRUE(t.decidedAnew());
   EXPECT_EQ(b.data, raw.data) << "false: the image itself";
+  EXPECT_FALSE(t.distorts()) << "false does not look at the lens";
   // "false" never looks at the distortion: one it cannot take is no error there.
   EXPECT_EQ(t.apply("false", "/k/image_depth", kCam, "fisheye", {1.0}, raw).data, raw.data);
   EXPECT_NE(message([&] { t.apply("auto", "/k/image_depth", kCam, "fisheye", {1.0}, raw); }).find("'fisheye'"),

@@ -253,8 +253,12 @@ void settingsChangeWhileFramesFlow(std::chrono::microseconds period, int min_pos
   std::shared_ptr<const Settings> active;
   int frames = 0, bad = 0, changes = 0;
   std::vector<int> seen(cfgs.size(), 0);
-  // Runs until the poster has posted enough changes (not a time limit: a slow machine just takes longer).
-  while (exchange.posted() < static_cast<std::uint64_t>(min_posts) || frames < 20)
+  // Runs until the poster has posted enough changes and the frames have taken two of them (not a time limit: a slow
+  // or busy machine, whose scheduler may leave one thread waiting for a while, just takes longer; the deadline
+  // is for a change that never arrives).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while ((exchange.posted() < static_cast<std::uint64_t>(min_posts) || frames < 20 || changes < 2) &&
+         std::chrono::steady_clock::now() < deadline)
   {
     if (exchange.take(active))
       ++changes;

@@ -15,18 +15,17 @@ def write_frames_bag(
     path: Path, frames: Sequence[np.ndarray], infos: Sequence[dict[str, Any]], topic: str = "/cam/depth/image_raw"
 ) -> None:
     """Frame i at 10 + i s on ``topic`` (its encoding from its dtype; a 32FC1 frame may hold millimetres), and its
-    camera_info beside it 1 ns later: ``infos[i]`` (the last one for the rest) gives ``width``, ``height``, ``K``
-    (9) and optionally ``distortion_model`` and ``D`` (plumb_bob, zeros), ``binning`` (x, y) and ``roi`` (x_offset,
-    y_offset, width, height), all 0 by default."""
+    camera_info beside it 1 ns later (none where ``infos`` is empty): ``infos[i]`` (the last one for the rest) gives
+    ``width``, ``height``, ``K`` (9) and optionally ``distortion_model`` and ``D`` (plumb_bob, zeros), ``binning``
+    (x, y) and ``roi`` (x_offset, y_offset, width, height), all 0 by default."""
     from kinect_pipeline.bags.writer import BagWriter
 
     w = BagWriter(path, "ros1")
     T = w.types
     c_img = w.add(topic, "sensor_msgs/msg/Image")
-    c_info = w.add(topic.rsplit("/", 1)[0] + "/camera_info", "sensor_msgs/msg/CameraInfo")
+    c_info = w.add(topic.rsplit("/", 1)[0] + "/camera_info", "sensor_msgs/msg/CameraInfo") if infos else None
     Time, Header = T["builtin_interfaces/msg/Time"], T["std_msgs/msg/Header"]
     for i, px in enumerate(frames):
-        info = infos[min(i, len(infos) - 1)]
         head = Header(seq=i, stamp=Time(sec=10 + i, nanosec=0), frame_id="cam")
         img = T["sensor_msgs/msg/Image"](
             header=head,
@@ -38,6 +37,9 @@ def write_frames_bag(
             data=np.ascontiguousarray(px).view(np.uint8).reshape(-1),
         )
         w.write(c_img, (10 + i) * 10**9, w.encode(img, "sensor_msgs/msg/Image"))
+        if c_info is None:
+            continue
+        info = infos[min(i, len(infos) - 1)]
         x, y, rw, rh = info.get("roi", (0, 0, 0, 0))
         bx, by = info.get("binning", (0, 0))
         msg = T["sensor_msgs/msg/CameraInfo"](

@@ -91,15 +91,19 @@ def _bag(path: Path, topic: str, frames: list[np.ndarray], D: list[float]) -> No
 
 
 def _replay(tmp_path: Path, name: str, topic: str, frames: list[np.ndarray], rectify: str) -> tuple[Any, np.ndarray]:
-    from kinect_pipeline.bags.reader import open_bag
     from kinect_pipeline.tools.replay import ReplayOptions, replay
 
     _bag(tmp_path / f"{name}.bag", topic, frames, KINECT_V2_D)
     opts = ReplayOptions(config={"sensor_height": HEIGHT, "sensor_pitch": TILT}, rectify=rectify)
     r = replay(tmp_path / f"{name}.bag", tmp_path / f"{name}_out.bag", opts, show_progress=False)
-    with open_bag(tmp_path / f"{name}_out.bag") as b:
-        scans = [np.array(b.decode(c, raw).ranges) for c, _, raw in b.messages() if c.topic.endswith("/scan")]
-    return r, np.array(scans)
+    return r, _scans(tmp_path / f"{name}_out.bag")
+
+
+def _scans(bag: Path) -> np.ndarray:
+    from kinect_pipeline.bags.reader import open_bag
+
+    with open_bag(bag) as b:
+        return np.array([np.array(b.decode(c, raw).ranges) for c, _, raw in b.messages() if c.topic.endswith("/scan")])
 
 
 def test_replay_rectifies_a_raw_topic_and_takes_a_rect_topic_as_it_is(tmp_path: Path) -> None:
@@ -126,3 +130,46 @@ def test_a_distortion_the_tools_cannot_take_skips_the_frame_naming_it(tmp_path: 
 
         replay(tmp_path / "in.bag", tmp_path / "out.bag", ReplayOptions(), show_progress=False)
     assert not (tmp_path / "out.bag").exists()
+
+
+def test_a_camera_info_yaml_with_a_lens_rectifies_a_bag_without_camera_info(tmp_path: Path) -> None:
+    """--intrinsics YAML as camera_calibration writes it, distortion_coefficients included (the node's
+    ~camera_info_url reads the same file)."""
+    from clitool import cli
+
+    raw, rect, _ = _raw_frame(0)
+    yaml_file = tmp_path / "kinect2_ir.yaml"
+    yaml_file.write_text(
+        f"image_width: {W}\nimage_height: {H}\ncamera_name: kinect2_ir\n"
+        f"camera_matrix:\n  rows: 3\n  cols: 3\n  data: [{FX}, 0, {CX}, 0, {FY}, {CY}, 0, 0, 1]\n"
+        "distortion_model: plumb_bob\n"
+        f"distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: {KINECT_V2_D}\n"
+    )
+    scans = {}
+    for name, frame in (("raw", raw), ("rect", rect)):
+        topic = "/kinect2/sd/image_depth" + ("_rect" if name == "rect" else "")
+        write_frames_bag(tmp_path / f"{name}.bag", [frame], [], topic)
+        out = tmp_path / f"{name}_out.bag"
+        args = ["--param", f"sensor_height={HEIGHT}", "--param", f"sensor_pitch={TILT}", "--quiet"]
+        r = cli("replay", str(tmp_path / f"{name}.bag"), "-o", str(out), "--intrinsics", str(yaml_file), *args)
+        assert r.returncode == 0, r.stderr
+        said = "rectified: yes" if name == "raw" else "rectified: no (the topic's name says"
+        assert said in r.stdout, r.stdout
+        scans[name] = _scans(out)
+    both = np.isfinite(scans["raw"]) & np.isfinite(scans["rect"])
+    assert np.mean(np.abs(scans["raw"] - scans["rect"])[both] < 0.03) > 0.97
+
+
+def test_a_camera_info_yaml_with_a_lens_the_core_cannot_take_is_named(tmp_path: Path) -> None:
+    from kinect_pipeline.intrinsics import IntrinsicsError, parse_intrinsics
+
+    yaml_file = tmp_path / "odd.yaml"
+    yaml_file.write_text(
+        "image_width: 512\nimage_height: 424\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+        "  data: [365, 0, 255, 0, 365, 211, 0, 0, 1]\ndistortion_model: fisheye\n"
+        "distortion_coefficients:\n  rows: 1\n  cols: 4\n  data: [0.1, 0, 0, 0]\n"
+    )
+    with pytest.raises(
+        IntrinsicsError, match=r"odd.yaml: camera_info distortion_model 'fisheye', D = \[0.1, 0, 0, 0\]"
+    ):
+        parse_intrinsics([str(yaml_file)])

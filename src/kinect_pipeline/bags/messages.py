@@ -45,6 +45,13 @@ def intrinsics_matrix(info: Any) -> list[float]:
     return [float(v) for v in k]
 
 
+def distortion_of(info: Any) -> tuple[str, list[float]]:
+    """distortion_model and D of a CameraInfo (ROS 1 ``D``, ROS 2 ``d``)."""
+    d = getattr(info, "d", None)
+    d = getattr(info, "D", []) if d is None else d
+    return str(getattr(info, "distortion_model", "")), [float(v) for v in d]
+
+
 def camera_from_info(info: Any) -> Any:
     """The core's camera of the images a CameraInfo goes with, its ROI and binning applied (the node's checks: K[0] =
     0 is an uncalibrated camera)."""

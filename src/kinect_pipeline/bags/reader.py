@@ -21,6 +21,7 @@ from .messages import (
     TRANSPORTS,
     camera_from_info,
     depth_array,
+    distortion_of,
     is_compressed_depth,
     stamp,
     typestore,
@@ -293,9 +294,10 @@ class Cameras:
 
     @property
     def source(self) -> str:
-        """Where the cameras come from, and whether the images are rectified (once a frame has said it)."""
-        why = self.rectification.why
-        return f"{self.given}; rectified: {why}" if why else self.given
+        """Where the cameras come from, and whether the images are rectified (once a frame with a lens has said
+        it)."""
+        r = self.rectification
+        return f"{self.given}; rectified: {r.why}" if r.distorts else self.given
 
     def for_frame(self, msg: Any, depth: np.ndarray, topic: str = "") -> tuple[Any, np.ndarray, str]:
         """The camera of a depth message on ``topic`` whose image is ``depth``, the image to process (rectified by
@@ -304,7 +306,9 @@ class Cameras:
         height, width = depth.shape[:2]
         try:
             if self.intrinsics is not None:
-                return self.intrinsics.camera(width, height), depth, ""
+                cam = self.intrinsics.camera(width, height)
+                intr = self.intrinsics
+                return cam, self._rectified(intr.distortion_model, list(intr.D), cam, depth, topic), ""
             if self.infos is not None and self.infos.stamps:
                 info, note = self.infos.for_stamp(stamp(msg))
                 cam = camera_from_info(info)
@@ -313,7 +317,8 @@ class Cameras:
                         f"the image is {width}x{height} but its camera_info on {self.infos.topic} is "
                         f"{cam.width}x{cam.height} (its roi and binning applied): expected one size"
                     )
-                return cam, self._rectified(info, cam, depth, topic), note
+                model, coefficients = distortion_of(info)
+                return cam, self._rectified(model, coefficients, cam, depth, topic), note
             if self.sensor_model:
                 cam, self.warning = nominal_camera(self.sensor_model, width, height)
                 return cam, depth, ""
@@ -322,9 +327,7 @@ class Cameras:
         where = f"no camera_info on {self.infos.topic} in the bag" if self.infos is not None else "no CameraInfo"
         raise BagError(f"{where}: give {HOW}, or --sensor-model NAME for its nominal camera")
 
-    def _rectified(self, info: Any, cam: Any, depth: np.ndarray, topic: str) -> np.ndarray:
-        model = str(getattr(info, "distortion_model", ""))
-        coefficients = [float(v) for v in (info.d if hasattr(info, "d") else getattr(info, "D", []))]
+    def _rectified(self, model: str, coefficients: list[float], cam: Any, depth: np.ndarray, topic: str) -> np.ndarray:
         try:
             return self.rectification.apply(self.rectify, topic, cam, model, coefficients, depth)
         except ValueError as exc:
