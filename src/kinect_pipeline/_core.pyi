@@ -203,14 +203,23 @@ class DepthRectifier:
 class TopicRectification:
     def __init__(self) -> None: ...
     def apply(
-        self, mode: str, image_topic: str, camera: Camera, distortion_model: str, D: Sequence[float], depth: Depth
+        self,
+        mode: str,
+        image_topic: str,
+        camera: Camera,
+        distortion_model: str,
+        D: Sequence[float],
+        depth: Depth,
+        R: Sequence[float] | None = None,
     ) -> Depth: ...
     @property
     def why(self) -> str: ...
     @property
     def distorts(self) -> bool: ...
 
-def rectify_wanted(mode: str, image_topic: str, rectifier: DepthRectifier) -> tuple[bool, str]: ...
+def rectify_wanted(
+    mode: str, image_topic: str, rectifier: DepthRectifier, stereo: bool = False
+) -> tuple[bool, str]: ...
 def camera_from_intrinsics(
     width: int,
     height: int,

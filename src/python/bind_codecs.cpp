@@ -111,29 +111,39 @@ void bindRectifier(py::module_& m)
       .def(
           "apply",
           [](TopicRectification& r, const std::string& mode, const std::string& topic, const Camera& camera,
-             const std::string& model, const std::vector<double>& D, const py::object& depth) {
+             const std::string& model, const std::vector<double>& D, const py::object& depth,
+             const std::optional<std::vector<double>>& R) {
             py::object keep;
             const cv::Mat raw = asMat(depth, "depth", keep);
-            const cv::Mat& out = r.apply(mode, topic, camera, model, D, raw);
+            CameraLens lens{model, D, {}};
+            if (R && !R->empty())
+            {
+              if (R->size() != 9)
+                throw py::value_error("R: expected 9 values (row-major 3x3), got " + std::to_string(R->size()));
+              std::copy(R->begin(), R->end(), lens.R.begin());
+            }
+            const cv::Mat& out = r.apply(mode, topic, camera, lens, raw);
             return out.data == raw.data ? py::object(depth) : py::object(matToArray(out));
           },
           py::arg("mode"), py::arg("image_topic"), py::arg("camera"), py::arg("distortion_model"), py::arg("D"),
-          py::arg("depth"),
-          "The image to process: depth itself, or its rectified image (a new array). ValueError for a bad mode or "
-          "a distortion it would need and cannot take.")
+          py::arg("depth"), py::arg("R") = py::none(),
+          "The image to process: depth itself, or its rectified image (a new array). R: the camera_info's (a "
+          "rotation other than the identity is a stereo camera's, whose depth images auto takes as rectified). "
+          "ValueError for a bad mode or a distortion it would need and cannot take.")
       .def_property_readonly("why", &TopicRectification::why, "What decided the last frame's rectification.")
       .def_property_readonly("distorts", &TopicRectification::distorts,
                              "The last frame's camera has a lens distortion the mode looked at (not with 'false').");
   m.def(
       "rectify_wanted",
-      [](const std::string& mode, const std::string& image_topic, const DepthRectifier& r) {
+      [](const std::string& mode, const std::string& image_topic, const DepthRectifier& r, bool stereo) {
         std::string why;
-        const bool yes = rectifyWanted(mode, image_topic, r, why);
+        const bool yes = rectifyWanted(mode, image_topic, r, stereo, why);
         return py::make_tuple(yes, why);
       },
-      py::arg("mode"), py::arg("image_topic"), py::arg("rectifier"),
+      py::arg("mode"), py::arg("image_topic"), py::arg("rectifier"), py::arg("stereo") = false,
       "(whether, why): the images on image_topic are rectified before the pipeline, by mode 'true', 'false' or "
-      "'auto' (unless the topic's last name holds 'rect', as ROS names rectified images); the node's rule.");
+      "'auto' (unless the topic's last name holds 'rect', as ROS names rectified images, or stereo: the camera_info's R "
+      "rotates); the node's rule.");
 }
 
 void bindEncodeDepth(py::module_& m)

@@ -631,7 +631,9 @@ bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::Camera
 {
   try
   {
-    depth = rectification_.apply(s.rectify, image_topic_, cam, info.distortion_model, info.D, depth);
+    CameraLens lens{info.distortion_model, info.D, {}};
+    std::copy(info.R.begin(), info.R.end(), lens.R.begin());
+    depth = rectification_.apply(s.rectify, image_topic_, cam, lens, depth);
   }
   catch (const std::invalid_argument& e)
   {

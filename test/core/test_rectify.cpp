@@ -141,20 +141,30 @@ TEST(Rectify, TheTopicsNameDecidesInAutoMode)
 {
   const DepthRectifier lens(kCam, "plumb_bob", {0.1, 0, 0, 0, 0}), none(kCam, "plumb_bob", {});
   std::string why;
-  EXPECT_TRUE(rectifyWanted("auto", "/kinect2/sd/image_depth", lens, why));
+  EXPECT_TRUE(rectifyWanted("auto", "/kinect2/sd/image_depth", lens, false, why));
   EXPECT_NE(why.find("yes (pixels move up to"), std::string::npos) << why;
   for (const char* rectified : {"/kinect2/sd/image_depth_rect", "/camera/depth/image_rect_raw/compressedDepth",
                                 "/camera/depth/image_rect/compressed"})
   {
-    EXPECT_FALSE(rectifyWanted("auto", rectified, lens, why)) << rectified;
+    EXPECT_FALSE(rectifyWanted("auto", rectified, lens, false, why)) << rectified;
     EXPECT_NE(why.find("the topic's name says it is rectified"), std::string::npos) << why;
-    EXPECT_TRUE(rectifyWanted("true", rectified, lens, why)) << rectified;
+    EXPECT_TRUE(rectifyWanted("true", rectified, lens, false, why)) << rectified;
   }
-  EXPECT_TRUE(rectifyWanted("auto", "/rect/image_raw", lens, why)) << "only the image's own name counts";
-  EXPECT_FALSE(rectifyWanted("true", "/kinect2/sd/image_depth", none, why));
+  EXPECT_TRUE(rectifyWanted("auto", "/rect/image_raw", lens, false, why)) << "only the image's own name counts";
+  EXPECT_FALSE(rectifyWanted("true", "/kinect2/sd/image_depth", none, false, why));
   EXPECT_EQ(why, "no (the camera_info has no distortion)");
-  EXPECT_FALSE(rectifyWanted("false", "/kinect2/sd/image_depth", lens, why));
-  EXPECT_NE(message([&] { rectifyWanted("yes", "/a", lens, why); }).find("rectify = 'yes': expected auto, true or false"),
+  EXPECT_FALSE(rectifyWanted("false", "/kinect2/sd/image_depth", lens, false, why));
+  // A stereo camera's depth is computed on rectified pairs: its camera_info's R rotates.
+  EXPECT_FALSE(rectifyWanted("auto", "/stereo/depth", lens, true, why));
+  EXPECT_NE(why.find("a stereo camera's, whose depth images are rectified"), std::string::npos) << why;
+  EXPECT_TRUE(rectifyWanted("true", "/stereo/depth", lens, true, why));
+  CameraLens l;
+  EXPECT_FALSE(l.stereo()) << "R not set";
+  l.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  EXPECT_FALSE(l.stereo()) << "the identity";
+  l.R = {0.9998, -0.0175, 0, 0.0175, 0.9998, 0, 0, 0, 1};
+  EXPECT_TRUE(l.stereo()) << "a rotation of 1 deg";
+  EXPECT_NE(message([&] { rectifyWanted("yes", "/a", lens, false, why); }).find("rectify = 'yes': expected auto, true or false"),
             std::string::npos);
 }
 
@@ -162,22 +172,22 @@ TEST(Rectify, ATopicsRectificationIsDecidedAgainOnlyWhenSomethingChanged)
 {
   TopicRectification t;
   const cv::Mat raw = ramp();
-  const std::vector<double> D{0.1, 0, 0, 0, 0};
-  const cv::Mat& a = t.apply("auto", "/k/image_depth", kCam, "plumb_bob", D, raw);
+  const CameraLens D{"plumb_bob", {0.1, 0, 0, 0, 0}, {}};
+  const cv::Mat& a = t.apply("auto", "/k/image_depth", kCam, D, raw);
   EXPECT_TRUE(t.decidedAnew());
   EXPECT_NE(a.data, raw.data);
-  t.apply("auto", "/k/image_depth", kCam, "plumb_bob", D, raw);
+  t.apply("auto", "/k/image_depth", kCam, D, raw);
   EXPECT_FALSE(t.decidedAnew());
   EXPECT_TRUE(t.distorts());
-  t.apply("auto", "/k/image_depth_rect", kCam, "plumb_bob", D, raw);
+  t.apply("auto", "/k/image_depth_rect", kCam, D, raw);
   EXPECT_TRUE(t.decidedAnew());
   EXPECT_TRUE(t.distorts()) << "a lens, though not rectified here";
-  const cv::Mat& b = t.apply("false", "/k/image_depth", kCam, "plumb_bob", D, raw);
+  const cv::Mat& b = t.apply("false", "/k/image_depth", kCam, D, raw);
   EXPECT_TRUE(t.decidedAnew());
   EXPECT_EQ(b.data, raw.data) << "false: the image itself";
   EXPECT_FALSE(t.distorts()) << "false does not look at the lens";
   // "false" never looks at the distortion: one it cannot take is no error there.
-  EXPECT_EQ(t.apply("false", "/k/image_depth", kCam, "fisheye", {1.0}, raw).data, raw.data);
-  EXPECT_NE(message([&] { t.apply("auto", "/k/image_depth", kCam, "fisheye", {1.0}, raw); }).find("'fisheye'"),
+  EXPECT_EQ(t.apply("false", "/k/image_depth", kCam, CameraLens{"fisheye", {1.0}, {}}, raw).data, raw.data);
+  EXPECT_NE(message([&] { t.apply("auto", "/k/image_depth", kCam, CameraLens{"fisheye", {1.0}, {}}, raw); }).find("'fisheye'"),
             std::string::npos);
 }

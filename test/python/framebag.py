@@ -16,8 +16,8 @@ def write_frames_bag(
 ) -> None:
     """Frame i at 10 + i s on ``topic`` (its encoding from its dtype; a 32FC1 frame may hold millimetres), and its
     camera_info beside it 1 ns later (none where ``infos`` is empty): ``infos[i]`` (the last one for the rest) gives
-    ``width``, ``height``, ``K`` (9) and optionally ``distortion_model`` and ``D`` (plumb_bob, zeros), ``binning``
-    (x, y) and ``roi`` (x_offset, y_offset, width, height), all 0 by default."""
+    ``width``, ``height``, ``K`` (9) and optionally ``distortion_model`` and ``D`` (plumb_bob, zeros), ``R`` (the
+    identity), ``binning`` (x, y) and ``roi`` (x_offset, y_offset, width, height), all 0 by default."""
     from kinect_pipeline.bags.writer import BagWriter
 
     w = BagWriter(path, "ros1")
@@ -49,7 +49,7 @@ def write_frames_bag(
             distortion_model=info.get("distortion_model", "plumb_bob"),
             D=np.array(info.get("D", np.zeros(5)), float),
             K=np.array(info["K"], float),
-            R=np.eye(3).reshape(-1),
+            R=np.array(info.get("R", np.eye(3).reshape(-1)), float),
             P=np.zeros(12),
             binning_x=bx,
             binning_y=by,

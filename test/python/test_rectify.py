@@ -85,9 +85,10 @@ def test_a_raw_kinect_v2_frame_keeps_its_floor_unless_rectified() -> None:
     assert near["auto"] > 0.97, f"beams within 3 cm of the rectified frame's: {near['auto']:.3f}"
 
 
-def _bag(path: Path, topic: str, frames: list[np.ndarray], D: list[float]) -> None:
-    """A ROS 1 bag of 16UC1 frames on ``topic`` with the Kinect v2's camera_info (plumb_bob, D)."""
-    write_frames_bag(path, frames, [{"width": W, "height": H, "K": K.ravel(), "D": D}], topic)
+def _bag(path: Path, topic: str, frames: list[np.ndarray], D: list[float], R: Any = None) -> None:
+    """A ROS 1 bag of 16UC1 frames on ``topic`` with the Kinect v2's camera_info (plumb_bob, D; R: the identity)."""
+    info = {"width": W, "height": H, "K": K.ravel(), "D": D, **({} if R is None else {"R": R})}
+    write_frames_bag(path, frames, [info], topic)
 
 
 def _replay(tmp_path: Path, name: str, topic: str, frames: list[np.ndarray], rectify: str) -> tuple[Any, np.ndarray]:
@@ -173,3 +174,23 @@ def test_a_camera_info_yaml_with_a_lens_the_core_cannot_take_is_named(tmp_path: 
         IntrinsicsError, match=r"odd.yaml: camera_info distortion_model 'fisheye', D = \[0.1, 0, 0, 0\]"
     ):
         parse_intrinsics([str(yaml_file)])
+
+
+def test_a_stereo_cameras_depth_is_taken_as_rectified_whatever_its_topics_name(tmp_path: Path) -> None:
+    """Depth from a stereo pair is computed on rectified images; its camera_info's R (the rectification's rotation)
+    says it is a stereo camera's."""
+    from kinect_pipeline.tools.replay import ReplayOptions, replay
+
+    a = np.radians(1.0)
+    R = [np.cos(a), -np.sin(a), 0.0, np.sin(a), np.cos(a), 0.0, 0.0, 0.0, 1.0]
+    _, rect, _ = _raw_frame(0)
+    _bag(tmp_path / "stereo.bag", "/stereo/depth", [rect], KINECT_V2_D, R)
+    for mode, said in (("auto", "rectified: no (the camera_info's R rotates: a stereo camera's"), ("true", "yes")):
+        out = tmp_path / f"out_{mode}.bag"
+        r = replay(tmp_path / "stereo.bag", out, ReplayOptions(rectify=mode), show_progress=False)
+        assert said in r.camera, r.camera
+    t = _core.TopicRectification()
+    assert t.apply("auto", "/stereo/depth", CAM, "plumb_bob", KINECT_V2_D, rect, R) is rect
+    assert t.apply("auto", "/stereo/depth", CAM, "plumb_bob", KINECT_V2_D, rect, np.eye(3).ravel()) is not rect
+    with pytest.raises(ValueError, match="R: expected 9 values"):
+        t.apply("auto", "/stereo/depth", CAM, "plumb_bob", KINECT_V2_D, rect, [1.0, 0.0])

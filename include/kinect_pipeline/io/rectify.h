@@ -6,6 +6,7 @@
  */
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -52,16 +53,29 @@ private:
   cv::Mat map_;  ///< CV_32SC1: the raw pixel v * width + u of each rectified one, -1 outside
 };
 
+/** A camera_info's lens: distortion_model, D, and R (row-major; all 0 where not set). */
+struct CameraLens
+{
+  std::string model;
+  std::vector<double> D;
+  std::array<double, 9> R{};
+  /**
+   * R rotates the rays (set, and not the identity): a stereo camera's rectification. Depth from a stereo camera is
+   * computed on rectified pairs, so its images are rectified whatever their topic's name.
+   */
+  bool stereo() const;
+};
+
 /**
  * @brief Whether the depth images on a topic are rectified before the pipeline, by a mode: "true" (when the
  *        camera_info has a distortion), "false", or "auto": as "true" unless the image topic's name says it is
  *        rectified already (its last name, before a transport's, holds "rect": image_rect, image_depth_rect,
- *        image_rect_raw), as ROS names its topics.
+ *        image_rect_raw), as ROS names its topics, or the camera is a stereo camera (CameraLens::stereo).
  * @param why set to what decided it, for messages
  * @throw std::invalid_argument for another mode, naming it
  */
 bool rectifyWanted(const std::string& mode, const std::string& image_topic, const DepthRectifier& rectifier,
-                   std::string& why);
+                   bool stereo, std::string& why);
 
 /**
  * The rectification of one image topic's frames, as the node and the bag tools do it: rectifyWanted() decides it
@@ -75,7 +89,7 @@ public:
    * @throw std::invalid_argument for a distortion it would need and cannot take, or a bad mode, naming them
    */
   const cv::Mat& apply(const std::string& mode, const std::string& image_topic, const Camera& camera,
-                       const std::string& model, const std::vector<double>& D, const cv::Mat& depth);
+                       const CameraLens& lens, const cv::Mat& depth);
   /** What decided the last frame's rectification (rectifyWanted's why); empty before the first. */
   const std::string& why() const { return why_; }
   /** Whether the last apply() decided anew (the first frame, or a change): for saying it once. */
@@ -84,9 +98,9 @@ public:
   bool distorts() const { return rectifier_ && !rectifier_->identity(); }
 
 private:
-  std::string mode_, topic_, model_, why_;
+  std::string mode_, topic_, why_;
   Camera camera_;
-  std::vector<double> D_;
+  CameraLens lens_;
   std::optional<DepthRectifier> rectifier_;
   bool wanted_ = false, anew_ = false;
   cv::Mat out_;

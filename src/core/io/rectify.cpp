@@ -134,8 +134,17 @@ void DepthRectifier::apply(const cv::Mat& raw, cv::Mat& out) const
   }
 }
 
+bool CameraLens::stereo() const
+{
+  const bool set = std::any_of(R.begin(), R.end(), [](double v) { return v != 0.0; });
+  for (std::size_t i = 0; set && i < R.size(); ++i)
+    if (std::fabs(R[i] - (i % 4 == 0 ? 1.0 : 0.0)) > 1e-9)
+      return true;
+  return false;
+}
+
 bool rectifyWanted(const std::string& mode, const std::string& image_topic, const DepthRectifier& rectifier,
-                   std::string& why)
+                   bool stereo, std::string& why)
 {
   if (mode != "auto" && mode != "true" && mode != "false")
     throw std::invalid_argument("rectify = '" + mode + "': expected auto, true or false");
@@ -155,6 +164,9 @@ bool rectifyWanted(const std::string& mode, const std::string& image_topic, cons
     name = name.substr(name.find_last_of('/') + 1);
     if (mode == "auto" && name.find("rect") != std::string::npos)
       why = "no (the topic's name says it is rectified; rectify true to rectify it)";
+    else if (mode == "auto" && stereo)
+      why = "no (the camera_info's R rotates: a stereo camera's, whose depth images are rectified; rectify true to "
+            "rectify them)";
     else
     {
       std::ostringstream s;
@@ -169,21 +181,21 @@ bool rectifyWanted(const std::string& mode, const std::string& image_topic, cons
 }
 
 const cv::Mat& TopicRectification::apply(const std::string& mode, const std::string& image_topic, const Camera& camera,
-                                         const std::string& model, const std::vector<double>& D, const cv::Mat& depth)
+                                         const CameraLens& lens, const cv::Mat& depth)
 {
-  anew_ = !rectifier_ || mode != mode_ || image_topic != topic_ || camera != camera_ || model != model_ || D != D_;
+  anew_ = !rectifier_ || mode != mode_ || image_topic != topic_ || camera != camera_ || lens.model != lens_.model ||
+          lens.D != lens_.D || lens.R != lens_.R;
   if (anew_)
   {
     rectifier_.reset();
     // A distortion is looked at only where the mode may want it: "false" takes the images as they are.
-    const DepthRectifier r = mode == "false" ? DepthRectifier(camera, "", {}) : DepthRectifier(camera, model, D);
-    wanted_ = rectifyWanted(mode, image_topic, r, why_);
+    const DepthRectifier r = mode == "false" ? DepthRectifier(camera, "", {}) : DepthRectifier(camera, lens.model, lens.D);
+    wanted_ = rectifyWanted(mode, image_topic, r, lens.stereo(), why_);
     rectifier_.emplace(r);
     mode_ = mode;
     topic_ = image_topic;
     camera_ = camera;
-    model_ = model;
-    D_ = D;
+    lens_ = lens;
   }
   if (!wanted_)
     return depth;

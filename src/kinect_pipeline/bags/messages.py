@@ -45,11 +45,15 @@ def intrinsics_matrix(info: Any) -> list[float]:
     return [float(v) for v in k]
 
 
-def distortion_of(info: Any) -> tuple[str, list[float]]:
-    """distortion_model and D of a CameraInfo (ROS 1 ``D``, ROS 2 ``d``)."""
-    d = getattr(info, "d", None)
-    d = getattr(info, "D", []) if d is None else d
-    return str(getattr(info, "distortion_model", "")), [float(v) for v in d]
+def distortion_of(info: Any) -> tuple[str, list[float], list[float]]:
+    """distortion_model, D and R of a CameraInfo (ROS 1 ``D``, ``R``; ROS 2 ``d``, ``r``; R empty where absent)."""
+
+    def field(name: str) -> list[float]:
+        v = getattr(info, name.lower(), None)
+        v = getattr(info, name, []) if v is None else v
+        return [float(x) for x in v]
+
+    return str(getattr(info, "distortion_model", "")), field("D"), field("R")
 
 
 def camera_from_info(info: Any) -> Any:

@@ -317,8 +317,8 @@ class Cameras:
                         f"the image is {width}x{height} but its camera_info on {self.infos.topic} is "
                         f"{cam.width}x{cam.height} (its roi and binning applied): expected one size"
                     )
-                model, coefficients = distortion_of(info)
-                return cam, self._rectified(model, coefficients, cam, depth, topic), note
+                model, coefficients, rotation = distortion_of(info)
+                return cam, self._rectified(model, coefficients, cam, depth, topic, rotation), note
             if self.sensor_model:
                 cam, self.warning = nominal_camera(self.sensor_model, width, height)
                 return cam, depth, ""
@@ -327,9 +327,11 @@ class Cameras:
         where = f"no camera_info on {self.infos.topic} in the bag" if self.infos is not None else "no CameraInfo"
         raise BagError(f"{where}: give {HOW}, or --sensor-model NAME for its nominal camera")
 
-    def _rectified(self, model: str, coefficients: list[float], cam: Any, depth: np.ndarray, topic: str) -> np.ndarray:
+    def _rectified(
+        self, model: str, coefficients: list[float], cam: Any, depth: np.ndarray, topic: str, rotation: Any = None
+    ) -> np.ndarray:
         try:
-            return self.rectification.apply(self.rectify, topic, cam, model, coefficients, depth)
+            return self.rectification.apply(self.rectify, topic, cam, model, coefficients, depth, rotation or None)
         except ValueError as exc:
             raise BagError(
                 f"{exc} to rectify the images (--rectify {self.rectify}; false if they are rectified)"
