@@ -1,5 +1,6 @@
 // Binding of the codecs: depth images and camera intrinsics as messages carry them (depth_image.h), float metres
 // in an encoding (encode_depth), and compressedDepth (compressed_depth.h).
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -61,6 +62,18 @@ void bindMessages(py::module_& m)
       "for 8UC1/mono8, uint16 for 16UC1/mono16 (mm), float32 for 32FC1 (m), in the host's byte order. ValueError "
       "for another encoding, empty data, a step below width * pixel size or data shorter than step * height, "
       "quoting the values (the ROS node's checks).");
+  m.def(
+      "rectified_intrinsics",
+      [](const std::vector<double>& P) -> std::optional<std::array<double, 9>> {
+        if (P.size() != 12)
+          throw py::value_error("P: expected 12 values (row-major 3x4), got " + std::to_string(P.size()));
+        std::array<double, 12> p{};
+        std::copy(P.begin(), P.end(), p.begin());
+        return rectifiedIntrinsics(p);
+      },
+      py::arg("P"),
+      "A rectified image's K from a sensor_msgs/CameraInfo's P (its left 3x3), as image_geometry takes it; None "
+      "where P is not set (P[0] = 0) or not of the form [fx 0 cx Tx; 0 fy cy Ty; 0 0 1 0].");
   m.def(
       "camera_from_intrinsics",
       [](std::uint32_t width, std::uint32_t height, const py::object& K, const std::string& frame_id,
@@ -131,6 +144,8 @@ void bindRectifier(py::module_& m)
           "rotation other than the identity is a stereo camera's, whose depth images auto takes as rectified). "
           "ValueError for a bad mode or a distortion it would need and cannot take.")
       .def_property_readonly("why", &TopicRectification::why, "What decided the last frame's rectification.")
+      .def_property_readonly("rectifies", &TopicRectification::rectifies,
+                             "The last apply() rectified the image (else it is taken as rectified already).")
       .def_property_readonly("distorts", &TopicRectification::distorts,
                              "The last frame's camera has a lens distortion the mode looked at (not with 'false').");
   m.def(

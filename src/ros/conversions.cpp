@@ -23,13 +23,29 @@ namespace enc = sensor_msgs::image_encodings;
 }  // namespace
 
 // The checks and their messages live in the core (depth_image.h), shared with the Python tools.
+namespace
+{
+Camera cameraOf(const sensor_msgs::CameraInfo& info, const std::array<double, 9>& K)
+{
+  const ImageWindow window{info.binning_x,    info.binning_y,  info.roi.x_offset,
+                           info.roi.y_offset, info.roi.width, info.roi.height};
+  return cameraFromIntrinsics(info.width, info.height, K, info.header.frame_id, window);
+}
+}  // namespace
+
 Camera cameraFromInfo(const sensor_msgs::CameraInfo& info)
 {
   std::array<double, 9> K;
   std::copy(info.K.begin(), info.K.end(), K.begin());
-  const ImageWindow window{info.binning_x,    info.binning_y,  info.roi.x_offset,
-                           info.roi.y_offset, info.roi.width, info.roi.height};
-  return cameraFromIntrinsics(info.width, info.height, K, info.header.frame_id, window);
+  return cameraOf(info, K);
+}
+
+Camera rectifiedCameraFromInfo(const sensor_msgs::CameraInfo& info)
+{
+  std::array<double, 12> P;
+  std::copy(info.P.begin(), info.P.end(), P.begin());
+  const std::optional<std::array<double, 9>> K = rectifiedIntrinsics(P);
+  return K ? cameraOf(info, *K) : cameraFromInfo(info);
 }
 
 cv::Mat depthFromCompressed(const sensor_msgs::CompressedImage& image, cv::Size expected)

@@ -626,7 +626,7 @@ void KinectPipelineRos::process(const Input& in)
   record(pose.pose, msSince(t0));
 }
 
-bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, const Camera& cam,
+bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, Camera& cam,
                                 cv::Mat& depth)
 {
   try
@@ -639,6 +639,16 @@ bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::Camera
   {
     drop(DropReason::kCameraInfo, std::string(e.what()) + " to rectify the images (~rectify " + s.rectify +
                                       "; false if they are rectified already)");
+    return false;
+  }
+  try
+  {
+    if (!rectification_.rectifies())  // a rectified image's camera is P's (the same as K's for most drivers)
+      cam = conversions::rectifiedCameraFromInfo(info);
+  }
+  catch (const std::invalid_argument& e)
+  {
+    drop(DropReason::kCameraInfo, std::string(e.what()) + " (of its P: the rectified image's camera)");
     return false;
   }
   if (rectification_.decidedAnew())

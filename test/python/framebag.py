@@ -17,7 +17,7 @@ def write_frames_bag(
     """Frame i at 10 + i s on ``topic`` (its encoding from its dtype; a 32FC1 frame may hold millimetres), and its
     camera_info beside it 1 ns later (none where ``infos`` is empty): ``infos[i]`` (the last one for the rest) gives
     ``width``, ``height``, ``K`` (9) and optionally ``distortion_model`` and ``D`` (plumb_bob, zeros), ``R`` (the
-    identity), ``binning`` (x, y) and ``roi`` (x_offset, y_offset, width, height), all 0 by default."""
+    identity), ``P`` (zeros: not set), ``binning`` (x, y) and ``roi`` (x_offset, y_offset, width, height; 0: all)."""
     from kinect_pipeline.bags.writer import BagWriter
 
     w = BagWriter(path, "ros1")
@@ -50,7 +50,7 @@ def write_frames_bag(
             D=np.array(info.get("D", np.zeros(5)), float),
             K=np.array(info["K"], float),
             R=np.array(info.get("R", np.eye(3).reshape(-1)), float),
-            P=np.zeros(12),
+            P=np.array(info.get("P", np.zeros(12)), float),
             binning_x=bx,
             binning_y=by,
             roi=T["sensor_msgs/msg/RegionOfInterest"](x_offset=x, y_offset=y, height=rh, width=rw, do_rectify=False),

@@ -194,3 +194,22 @@ def test_a_stereo_cameras_depth_is_taken_as_rectified_whatever_its_topics_name(t
     assert t.apply("auto", "/stereo/depth", CAM, "plumb_bob", KINECT_V2_D, rect, np.eye(3).ravel()) is not rect
     with pytest.raises(ValueError, match="R: expected 9 values"):
         t.apply("auto", "/stereo/depth", CAM, "plumb_bob", KINECT_V2_D, rect, [1.0, 0.0])
+
+
+def test_a_rectified_topics_camera_is_its_camera_infos_projection(tmp_path: Path) -> None:
+    """camera_calibration's P (with which image_proc rectifies) differs from K: a rectified image's camera is P's,
+    as image_geometry takes it; a raw image rectified here keeps K."""
+    from kinect_pipeline.tools.replay import ReplayOptions, replay
+
+    _, rect, _ = _raw_frame(0)
+    wrong_k = [FX * 1.1, 0.0, CX + 12, 0.0, FY * 1.1, CY - 9, 0.0, 0.0, 1.0]
+    P = [FX, 0.0, CX, 0.0, 0.0, FY, CY, 0.0, 0.0, 0.0, 1.0, 0.0]
+    info = {"width": W, "height": H, "K": wrong_k, "D": KINECT_V2_D, "P": P}
+    write_frames_bag(tmp_path / "rect.bag", [rect], [info], "/kinect2/sd/image_depth_rect")
+    opts = ReplayOptions(config={"sensor_height": HEIGHT, "sensor_pitch": TILT})
+    replay(tmp_path / "rect.bag", tmp_path / "out.bag", opts, show_progress=False)
+    config = kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT)
+    want = np.asarray(kp.Pipeline(CAM, config).process(rect).ranges)
+    np.testing.assert_array_equal(_scans(tmp_path / "out.bag")[0], want)
+    assert _core.rectified_intrinsics(P) == [FX, 0.0, CX, 0.0, FY, CY, 0.0, 0.0, 1.0]
+    assert _core.rectified_intrinsics([0.0] * 12) is None, "not set"

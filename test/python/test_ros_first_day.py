@@ -274,12 +274,15 @@ def test_a_crop_decimate_camera_info_gives_the_windows_camera(
 def test_a_raw_topic_is_rectified_by_its_camera_infos_distortion(
     ros: RosGraph, tmp_path: Path, kind: str, image: str
 ) -> None:
-    """kinect2_bridge's sd/image_depth is raw, its sd/image_depth_rect rectified, both with the IR lens's D."""
+    """kinect2_bridge's sd/image_depth is raw, its sd/image_depth_rect rectified, both with the IR lens's D; a
+    rectified image's camera is its camera_info's P (image_proc rectifies with it), a raw one rectified here K's."""
     launch_exact(ros, tmp_path, kind, f"image:={image}")
     D = [0.0905, -0.2699, 0.0, 0.0, 0.0952]
     until = "len(scans) >= 3 and diag('rectified', 'processing') not in (None, '(no frame yet)')"
-    res = ros.feed("feed", "--noise-free", "--image", image, "--distortion", ",".join(map(str, D)), "--until", until)
     raw = image.endswith("image_depth")
+    # The raw image is rectified here with K; the rectified one's camera is P's (image_geometry's): the other is off.
+    lens = ["--distortion", ",".join(map(str, D)), "--off", "P" if raw else "K"]
+    res = ros.feed("feed", "--noise-free", "--image", image, *lens, "--until", until)
     said = newest(res, PROC, "rectified") or ""
     assert said.startswith("yes (pixels move up to" if raw else "no (the topic's name says"), said
     depth = kp.DepthRectifier(CAM, "plumb_bob", D).apply(frame()) if raw else frame()

@@ -167,6 +167,7 @@ def parse_args() -> argparse.Namespace:
     ap.add_argument("--clock-jump", default=None, help="FRAME:T: at that frame the clock starts again from T")
     ap.add_argument("--switch-scene", default=None, help="SCENE:EXPR: render SCENE once EXPR holds")
     ap.add_argument("--distortion", default=None, help="K1,K2,P1,P2,K3: the camera_info's plumb_bob D (default: 0)")
+    ap.add_argument("--off", choices=["K", "P"], default=None, help="that matrix's fx, fy 10 %% off, the other right")
     ap.add_argument(
         "--window",
         default=None,
@@ -281,6 +282,10 @@ class Feeder:
         info.width, info.height = CAM.width, CAM.height
         info.K = [CAM.fx, 0, CAM.cx, 0, CAM.fy, CAM.cy, 0, 0, 1]
         info.P = [CAM.fx, 0, CAM.cx, 0, 0, CAM.fy, CAM.cy, 0, 0, 0, 1, 0]
+        if args.off == "K":
+            info.K[0], info.K[4] = 1.1 * CAM.fx, 1.1 * CAM.fy
+        elif args.off == "P":
+            info.P[0], info.P[5] = 1.1 * CAM.fx, 1.1 * CAM.fy
         if args.distortion:
             info.distortion_model, info.D = "plumb_bob", [float(v) for v in args.distortion.split(",")]
         w = window(args)

@@ -152,6 +152,29 @@ TEST(Conversions, CameraFromInfoRefusesAWindowOutsideTheImage)
   EXPECT_NE(m.find("binning 600x0: expected a binning no larger than the roi"), std::string::npos) << m;
 }
 
+// A rectified image's camera is P's (image_geometry's fx() is P(0,0)): camera_calibration's P, with which
+// image_proc rectifies, differs from K.
+TEST(Conversions, ARectifiedImagesCameraIsItsProjections)
+{
+  auto i = info();
+  i.P = {350.0, 0, 250.0, 0, 0, 351.0, 210.0, 0, 0, 0, 1, 0};
+  Camera c = rectifiedCameraFromInfo(i);
+  EXPECT_DOUBLE_EQ(c.fx, 350.0);
+  EXPECT_DOUBLE_EQ(c.fy, 351.0);
+  EXPECT_DOUBLE_EQ(c.cx, 250.0);
+  EXPECT_DOUBLE_EQ(c.cy, 210.0);
+  EXPECT_DOUBLE_EQ(cameraFromInfo(i).fx, 365.0) << "the raw image's is K's";
+  i.binning_x = i.binning_y = 2;
+  c = rectifiedCameraFromInfo(i);
+  EXPECT_EQ(c.width, 256);
+  EXPECT_DOUBLE_EQ(c.fx, 175.0);
+  EXPECT_DOUBLE_EQ(c.cy, 105.0);
+  auto unset = info();  // P all 0 (not calibrated), or not a pinhole's: K's
+  EXPECT_DOUBLE_EQ(rectifiedCameraFromInfo(unset).fx, 365.0);
+  unset.P = {350.0, 0, 250.0, 0, 0, 351.0, 210.0, 0, 0, 0, 2, 0};
+  EXPECT_DOUBLE_EQ(rectifiedCameraFromInfo(unset).fx, 365.0);
+}
+
 TEST(Conversions, DepthImagesAreViewedInPlace)
 {
   for (auto [encoding, type, elem] : {std::tuple{"16UC1", CV_16UC1, 2}, {"mono16", CV_16UC1, 2}, {"32FC1", CV_32FC1, 4},

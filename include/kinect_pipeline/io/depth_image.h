@@ -9,6 +9,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -66,6 +67,14 @@ struct ImageWindow
  */
 Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std::array<double, 9>& K,
                             const std::string& frame_id, const ImageWindow& window = {});
+
+/**
+ * @brief The intrinsics of a rectified image from a CameraInfo's P (its left 3x3), as image_geometry takes them: a
+ *        rectified image's camera is P's, which may differ from K (camera_calibration's P, with which image_proc
+ *        rectifies; a stereo camera's rectified projection).
+ * @return P's [fx 0 cx; 0 fy cy; 0 0 1] as a K, or nothing where P is not set (P[0] = 0) or not of that form
+ */
+std::optional<std::array<double, 9>> rectifiedIntrinsics(const std::array<double, 12>& P);
 
 /** @return true where the host stores multi-byte values most significant byte first. */
 bool hostIsBigEndian();

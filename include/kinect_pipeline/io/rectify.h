@@ -94,6 +94,8 @@ public:
   const std::string& why() const { return why_; }
   /** Whether the last apply() decided anew (the first frame, or a change): for saying it once. */
   bool decidedAnew() const { return anew_; }
+  /** Whether the last apply() rectified the image (else it is taken as rectified already). */
+  bool rectifies() const { return wanted_; }
   /** Whether the last frame's camera has a lens distortion that the mode looked at (not with "false"). */
   bool distorts() const { return rectifier_ && !rectifier_->identity(); }
 

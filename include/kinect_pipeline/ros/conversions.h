@@ -31,6 +31,11 @@ namespace conversions
  * @throw std::invalid_argument for what cameraFromIntrinsics refuses, quoting the values.
  */
 Camera cameraFromInfo(const sensor_msgs::CameraInfo& info);
+/**
+ * @brief The camera of a rectified image the CameraInfo goes with: P's (rectifiedIntrinsics, io/depth_image.h) where
+ *        P is set, as image_geometry takes it, else K's; its ROI and binning applied as cameraFromInfo does.
+ */
+Camera rectifiedCameraFromInfo(const sensor_msgs::CameraInfo& info);
 
 /**
  * @brief A cv::Mat over a depth image's data, without a copy where the byte order is the host's.

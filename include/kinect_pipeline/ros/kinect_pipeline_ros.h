@@ -148,8 +148,11 @@ private:
   bool fallback(const NodeSettings& s, const std_msgs::Header& header, const std::string& why, FramePose& pose);
   void warnIfStaticDisagrees(const NodeSettings& s, const SensorPose& fixed);
   void broadcastScanFrame(const NodeSettings& s, const std_msgs::Header& header, const FramePose& pose);
-  /** The image rectified by ~rectify (TopicRectification); false: dropped (a distortion it cannot take). */
-  bool rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, const Camera& cam, cv::Mat& depth);
+  /**
+   * The image rectified by ~rectify (TopicRectification), and its camera: K's where it was rectified here, else the
+   * rectified image's (P's where set); false: dropped (a distortion it cannot take, a P the core refuses).
+   */
+  bool rectify(const NodeSettings& s, const sensor_msgs::CameraInfo& info, Camera& cam, cv::Mat& depth);
   void publish(const NodeSettings& s, const Input& in, const std::string& encoding);
   void record(const SensorPose& prior, double ms);
 

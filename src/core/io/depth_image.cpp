@@ -103,6 +103,14 @@ Camera cameraFromIntrinsics(std::uint32_t width, std::uint32_t height, const std
   return cam;
 }
 
+std::optional<std::array<double, 9>> rectifiedIntrinsics(const std::array<double, 12>& P)
+{
+  const bool finite = std::all_of(P.begin(), P.end(), [](double v) { return std::isfinite(v); });
+  if (!finite || !(P[0] > 0.0) || !(P[5] > 0.0) || P[4] != 0.0 || P[8] != 0.0 || P[9] != 0.0 || P[10] != 1.0)
+    return std::nullopt;
+  return std::array<double, 9>{P[0], P[1], P[2], 0.0, P[5], P[6], 0.0, 0.0, 1.0};
+}
+
 cv::Mat depthFromBuffer(const ImageBuffer& image, cv::Mat& buffer)
 {
   const std::string& e = image.encoding;

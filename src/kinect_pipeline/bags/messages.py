@@ -56,16 +56,22 @@ def distortion_of(info: Any) -> tuple[str, list[float], list[float]]:
     return str(getattr(info, "distortion_model", "")), field("D"), field("R")
 
 
-def camera_from_info(info: Any) -> Any:
+def camera_from_info(info: Any, rectified: bool = False) -> Any:
     """The core's camera of the images a CameraInfo goes with, its ROI and binning applied (the node's checks: K[0] =
-    0 is an uncalibrated camera)."""
+    0 is an uncalibrated camera). ``rectified``: of a rectified image, whose camera is P's where P is set (as
+    image_geometry takes it; the node's rectifiedCameraFromInfo)."""
+    k = intrinsics_matrix(info)
+    if rectified:
+        p = getattr(info, "p", None)
+        p = getattr(info, "P", None) if p is None else p
+        k = (_core.rectified_intrinsics([float(v) for v in p]) if p is not None and len(p) == 12 else None) or k
     roi = getattr(info, "roi", None)  # every CameraInfo has it; a message-like object may not
     window = (0, 0, 0, 0) if roi is None else (int(roi.x_offset), int(roi.y_offset), int(roi.width), int(roi.height))
     try:
         return _core.camera_from_intrinsics(
             int(info.width),
             int(info.height),
-            intrinsics_matrix(info),
+            k,
             info.header.frame_id,
             binning_x=int(getattr(info, "binning_x", 0)),
             binning_y=int(getattr(info, "binning_y", 0)),

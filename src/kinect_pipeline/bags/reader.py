@@ -318,7 +318,10 @@ class Cameras:
                         f"{cam.width}x{cam.height} (its roi and binning applied): expected one size"
                     )
                 model, coefficients, rotation = distortion_of(info)
-                return cam, self._rectified(model, coefficients, cam, depth, topic, rotation), note
+                depth = self._rectified(model, coefficients, cam, depth, topic, rotation)
+                if not self.rectification.rectifies:  # a rectified image's camera is P's, as in the node
+                    cam = camera_from_info(info, rectified=True)
+                return cam, depth, note
             if self.sensor_model:
                 cam, self.warning = nominal_camera(self.sensor_model, width, height)
                 return cam, depth, ""
