@@ -31,18 +31,34 @@ class Intrinsics:
     width: int = 0
     height: int = 0
     source: str = "--intrinsics"  #: where they came from, for messages
-    distortion_model: str = ""  #: a camera_info YAML's lens (the node's ~camera_info_url takes it too)
+    # A camera_info YAML's lens and rectified projection (the node's ~camera_info_url takes them too).
+    distortion_model: str = ""
     D: tuple[float, ...] = ()
+    projection: tuple[float, ...] = ()  #: fx, fy, cx, cy of its P: a rectified image's camera; () where not set
 
-    def distortion(self) -> list[Any] | None:
-        """[distortion_model, D...] where the lens distorts (a D not all 0), else None."""
-        return [self.distortion_model, *self.D] if any(self.D) else None
+    def lens(self) -> dict[str, Any] | None:
+        """Its distortion and projection where it has them (what a replay records of them), else None."""
+        if not any(self.D) and not self.projection:
+            return None
+        return {"distortion_model": self.distortion_model, "D": list(self.D), "projection": list(self.projection)}
 
-    def with_distortion(self, distortion: list[Any] | None) -> Intrinsics:
-        """These intrinsics with the lens :meth:`distortion` gave (None: none)."""
-        if not distortion:
+    def with_lens(self, lens: dict[str, Any] | None) -> Intrinsics:
+        """These intrinsics with the lens :meth:`lens` gave (None: none)."""
+        if not lens:
             return self
-        return replace(self, distortion_model=str(distortion[0]), D=tuple(float(x) for x in distortion[1:]))
+        return replace(
+            self,
+            distortion_model=str(lens["distortion_model"]),
+            D=tuple(float(x) for x in lens["D"]),
+            projection=tuple(float(x) for x in lens["projection"]),
+        )
+
+    def rectified_camera(self, width: int, height: int) -> Any:
+        """The camera of a rectified image: its projection's (P's) where the YAML set one, as the node takes it."""
+        if not self.projection:
+            return self.camera(width, height)
+        fx, fy, cx, cy = self.projection
+        return replace(self, fx=fx, fy=fy, cx=cx, cy=cy, projection=()).camera(width, height)
 
     def as_list(self) -> list[float]:
         """fx, fy, cx, cy, width, height (what a replay records of them)."""
@@ -127,9 +143,14 @@ def read_camera_info_yaml(path: Path) -> Intrinsics:
     try:  # the camera_info's own checks: a pinhole K, a skew within a pixel, a lens the core can take
         cam = _core.camera_from_intrinsics(max(width, 1), max(height, 1), k)
         _core.DepthRectifier(cam, model, list(d))
-    except (ValueError, TypeError) as exc:
+        p = [float(x) for x in ((doc.get("projection_matrix") or {}).get("data") or [])]
+        pk = _core.rectified_intrinsics(p) if len(p) == 12 else None
+        if pk is not None:
+            _core.camera_from_intrinsics(max(width, 1), max(height, 1), pk)
+    except (ValueError, TypeError, AttributeError) as exc:
         raise IntrinsicsError(f"{where}: {exc}") from exc
-    return Intrinsics(k[0], k[4], k[2], k[5], width, height, where, model, d)
+    projection = () if pk is None or pk == k else (pk[0], pk[4], pk[2], pk[5])
+    return Intrinsics(k[0], k[4], k[2], k[5], width, height, where, model, d, projection)
 
 
 def _distortion(doc: dict[str, Any], where: str) -> tuple[str, tuple[float, ...]]:

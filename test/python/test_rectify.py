@@ -213,3 +213,24 @@ def test_a_rectified_topics_camera_is_its_camera_infos_projection(tmp_path: Path
     np.testing.assert_array_equal(_scans(tmp_path / "out.bag")[0], want)
     assert _core.rectified_intrinsics(P) == [FX, 0.0, CX, 0.0, FY, CY, 0.0, 0.0, 1.0]
     assert _core.rectified_intrinsics([0.0] * 12) is None, "not set"
+
+
+def test_a_camera_info_yamls_projection_is_a_rectified_topics_camera(tmp_path: Path) -> None:
+    """--intrinsics YAML with a projection_matrix other than its camera_matrix, on a bag without camera_info: as the
+    node's ~camera_info_url, a rectified topic's camera is P's."""
+    from clitool import cli
+
+    _, rect, _ = _raw_frame(0)
+    yaml_file = tmp_path / "kinect2_ir.yaml"
+    yaml_file.write_text(
+        f"image_width: {W}\nimage_height: {H}\ncamera_name: kinect2_ir\n"
+        f"camera_matrix:\n  rows: 3\n  cols: 3\n  data: [{FX * 1.1}, 0, {CX + 10}, 0, {FY * 1.1}, {CY}, 0, 0, 1]\n"
+        f"distortion_model: plumb_bob\ndistortion_coefficients:\n  rows: 1\n  cols: 5\n  data: {KINECT_V2_D}\n"
+        f"projection_matrix:\n  rows: 3\n  cols: 4\n  data: [{FX}, 0, {CX}, 0, 0, {FY}, {CY}, 0, 0, 0, 1, 0]\n"
+    )
+    write_frames_bag(tmp_path / "rect.bag", [rect], [], "/kinect2/sd/image_depth_rect")
+    args = ["--param", f"sensor_height={HEIGHT}", "--param", f"sensor_pitch={TILT}", "--quiet"]
+    r = cli("replay", str(tmp_path / "rect.bag"), "-o", str(tmp_path / "o.bag"), "--intrinsics", str(yaml_file), *args)
+    assert r.returncode == 0, r.stderr
+    want = np.asarray(kp.Pipeline(CAM, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT)).process(rect).ranges)
+    np.testing.assert_array_equal(_scans(tmp_path / "o.bag")[0], want)

@@ -306,9 +306,12 @@ class Cameras:
         height, width = depth.shape[:2]
         try:
             if self.intrinsics is not None:
-                cam = self.intrinsics.camera(width, height)
                 intr = self.intrinsics
-                return cam, self._rectified(intr.distortion_model, list(intr.D), cam, depth, topic), ""
+                cam = intr.camera(width, height)
+                depth = self._rectified(intr.distortion_model, list(intr.D), cam, depth, topic)
+                if not self.rectification.rectifies:  # a rectified image's camera is P's, as in the node
+                    cam = intr.rectified_camera(width, height)
+                return cam, depth, ""
             if self.infos is not None and self.infos.stamps:
                 info, note = self.infos.for_stamp(stamp(msg))
                 cam = camera_from_info(info)

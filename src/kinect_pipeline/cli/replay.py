@@ -71,7 +71,7 @@ def bag_options(args: argparse.Namespace, **more: object) -> Any:
         depth_topic=args.depth_topic,
         info_topic=args.info_topic,
         intrinsics=None if intr is None else intr.as_list(),
-        distortion=None if intr is None else intr.distortion(),
+        lens=None if intr is None else intr.lens(),
         base_frame=args.base_frame,
         base_frame_height=args.base_frame_height,
         rectify=args.rectify,

@@ -234,7 +234,7 @@ class FleetOptions:
             "pose_fallback": r.pose_fallback,
             "skip_bad": r.skip_bad,
             "rectify": r.rectify,
-            "distortion": r.distortion,
+            "lens": r.lens,
             "intrinsics": self.intrinsics,
             "sensor_model": self.sensor_model,
             "depth_scale": self.depth_scale,

@@ -58,16 +58,14 @@ class ReplayOptions:
     #: fx, fy, cx, cy [px] (and width, height; 0: the images'): the depth camera where the bag has no CameraInfo
     #: (they win over one it has); without them and without a camera_info, config's sensor_model's nominal camera
     intrinsics: list[float] | None = None
-    #: [distortion_model, k1, k2, ...] of the intrinsics (a camera_info YAML's lens), or None
-    distortion: list[Any] | None = None
+    #: the intrinsics' lens (a camera_info YAML's distortion and projection: ``Intrinsics.lens``), or None
+    lens: dict[str, Any] | None = None
     #: images rectified by their camera_info's distortion: auto (unless the topic's name holds "rect"), true, false
     rectify: str = "auto"
 
     def cameras(self, bag: BagReader, info_topic: str | None, on_damage: Any = None) -> Cameras:
         """Where each frame's camera comes from (:class:`kinect_pipeline.bags.Cameras`)."""
-        intr = (
-            None if self.intrinsics is None else Intrinsics.from_list(self.intrinsics).with_distortion(self.distortion)
-        )
+        intr = None if self.intrinsics is None else Intrinsics.from_list(self.intrinsics).with_lens(self.lens)
         return Cameras(bag, info_topic, intr, self.config.get("sensor_model"), on_damage, self.rectify)
 
     def topics(self, bag: BagReader) -> tuple[str, str | None]:
