@@ -638,7 +638,7 @@ bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::Camera
   catch (const std::invalid_argument& e)
   {
     drop(DropReason::kCameraInfo, std::string(e.what()) + " to rectify the images (~rectify " + s.rectify +
-                                      "; false if they are rectified already)");
+                                      "; never if they are rectified already)");
     return false;
   }
   try

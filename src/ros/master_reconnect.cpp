@@ -1,7 +1,11 @@
 #include "kinect_pipeline/ros/master_reconnect.h"
 
 #include <chrono>
+#include <mutex>
+#include <thread>
 #include <utility>
+
+#include <boost/make_shared.hpp>
 
 #include <ros/connection_manager.h>
 #include <ros/master.h>
@@ -16,18 +20,73 @@ namespace kinect_pipeline
 
 namespace
 {
-/** Calls a method of this process's own XML-RPC (slave) API; @return its value (the third element). */
+/**
+ * One call of this process's own XML-RPC (slave) API, driven by roscpp's XML-RPC thread as roscpp's own pending
+ * connections are. A blocking XmlRpcClient::execute waited for ever when ros::shutdown stopped that server during
+ * the call, and the destructor's join with it: a node that did not exit on SIGINT (seen once in a test's teardown).
+ */
+class SelfCall : public ros::ASyncXMLRPCConnection
+{
+public:
+  SelfCall(const std::string& host, int port) : client_(host.c_str(), port, "/") {}
+  bool start(const std::string& method, const XmlRpc::XmlRpcValue& params)
+  {
+    return client_.executeNonBlock(method.c_str(), params);
+  }
+  void addToDispatch(XmlRpc::XmlRpcDispatch* d) override
+  {
+    d->addSource(&client_, XmlRpc::XmlRpcDispatch::WritableEvent | XmlRpc::XmlRpcDispatch::Exception);
+  }
+  void removeFromDispatch(XmlRpc::XmlRpcDispatch* d) override { d->removeSource(&client_); }
+  bool check() override  // roscpp's XML-RPC thread
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!done_ && client_.executeCheckDone(result_))
+    {
+      done_ = true;
+      fault_ = client_.isFault();
+    }
+    return done_;
+  }
+  /** @return whether the answer came (and was no fault), with it in @p result. */
+  bool answered(XmlRpc::XmlRpcValue& result)
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (done_ && !fault_)
+      result = result_;
+    return done_ && !fault_;
+  }
+  bool done()
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return done_;
+  }
+
+private:
+  XmlRpc::XmlRpcClient client_;
+  std::mutex mutex_;
+  XmlRpc::XmlRpcValue result_;
+  bool done_ = false, fault_ = false;
+};
+
+/** Calls a method of this process's own XML-RPC API, waiting 2 s at most and not past ros::shutdown; @return its
+ *  value (the third element). */
 bool callSelf(const std::string& method, XmlRpc::XmlRpcValue& params, XmlRpc::XmlRpcValue& value)
 {
   std::string host;
   uint32_t port = 0;
   if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port))
     return false;
-  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  const auto call = boost::make_shared<SelfCall>(host, static_cast<int>(port));
+  if (!call->start(method, params))
+    return false;
+  ros::XMLRPCManager::instance()->addASyncConnection(call);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
+  while (!call->done() && ros::ok() && !ros::isShuttingDown() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));  // the answer comes on roscpp's thread
+  ros::XMLRPCManager::instance()->removeASyncConnection(call);
   XmlRpc::XmlRpcValue result;
-  const bool ok = client.execute(method.c_str(), params, result);
-  client.close();
-  if (!ok || client.isFault() || result.getType() != XmlRpc::XmlRpcValue::TypeArray || result.size() != 3 ||
+  if (!call->answered(result) || result.getType() != XmlRpc::XmlRpcValue::TypeArray || result.size() != 3 ||
       int(result[0]) != 1)
     return false;
   value = result[2];
@@ -90,7 +149,10 @@ void MasterReconnect::check()
     master_down_ = true;
     return;
   }
-  // The master answers but does not know this node: it was restarted.
+  // The master answers but does not know this node: it was restarted, or this node is shutting down (roscpp has
+  // unregistered its topics), when nothing is to be registered.
+  if (!ros::ok() || ros::isShuttingDown())
+    return;
   std::string problem;
   if (registerAll(problem))
   {

@@ -92,8 +92,8 @@ std::vector<std::string> settingsProblems(const KinectPipelineConfig& c, NodeSet
   if (s.pose_fallback != "static" && s.pose_fallback != "last" && s.pose_fallback != "drop")
     problems.push_back("~pose_fallback = '" + s.pose_fallback + "': expected static, last or drop");
   s.rectify = c.rectify;
-  if (s.rectify != "auto" && s.rectify != "true" && s.rectify != "false")
-    problems.push_back("~rectify = '" + s.rectify + "': expected auto, true or false");
+  if (s.rectify != "auto" && s.rectify != "always" && s.rectify != "never")
+    problems.push_back("~rectify = '" + s.rectify + "': expected auto, always or never");
   s.base_frame = c.base_frame;
   s.scan_frame = c.scan_frame;
   if (s.pose_source == "tf" && s.base_frame.empty())

@@ -148,23 +148,23 @@ TEST(Rectify, TheTopicsNameDecidesInAutoMode)
   {
     EXPECT_FALSE(rectifyWanted("auto", rectified, lens, false, why)) << rectified;
     EXPECT_NE(why.find("the topic's name says it is rectified"), std::string::npos) << why;
-    EXPECT_TRUE(rectifyWanted("true", rectified, lens, false, why)) << rectified;
+    EXPECT_TRUE(rectifyWanted("always", rectified, lens, false, why)) << rectified;
   }
   EXPECT_TRUE(rectifyWanted("auto", "/rect/image_raw", lens, false, why)) << "only the image's own name counts";
-  EXPECT_FALSE(rectifyWanted("true", "/kinect2/sd/image_depth", none, false, why));
+  EXPECT_FALSE(rectifyWanted("always", "/kinect2/sd/image_depth", none, false, why));
   EXPECT_EQ(why, "no (the camera_info has no distortion)");
-  EXPECT_FALSE(rectifyWanted("false", "/kinect2/sd/image_depth", lens, false, why));
+  EXPECT_FALSE(rectifyWanted("never", "/kinect2/sd/image_depth", lens, false, why));
   // A stereo camera's depth is computed on rectified pairs: its camera_info's R rotates.
   EXPECT_FALSE(rectifyWanted("auto", "/stereo/depth", lens, true, why));
   EXPECT_NE(why.find("a stereo camera's, whose depth images are rectified"), std::string::npos) << why;
-  EXPECT_TRUE(rectifyWanted("true", "/stereo/depth", lens, true, why));
+  EXPECT_TRUE(rectifyWanted("always", "/stereo/depth", lens, true, why));
   CameraLens l;
   EXPECT_FALSE(l.stereo()) << "R not set";
   l.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
   EXPECT_FALSE(l.stereo()) << "the identity";
   l.R = {0.9998, -0.0175, 0, 0.0175, 0.9998, 0, 0, 0, 1};
   EXPECT_TRUE(l.stereo()) << "a rotation of 1 deg";
-  EXPECT_NE(message([&] { rectifyWanted("yes", "/a", lens, false, why); }).find("rectify = 'yes': expected auto, true or false"),
+  EXPECT_NE(message([&] { rectifyWanted("yes", "/a", lens, false, why); }).find("rectify = 'yes': expected auto, always or never"),
             std::string::npos);
 }
 
@@ -182,12 +182,12 @@ TEST(Rectify, ATopicsRectificationIsDecidedAgainOnlyWhenSomethingChanged)
   t.apply("auto", "/k/image_depth_rect", kCam, D, raw);
   EXPECT_TRUE(t.decidedAnew());
   EXPECT_TRUE(t.distorts()) << "a lens, though not rectified here";
-  const cv::Mat& b = t.apply("false", "/k/image_depth", kCam, D, raw);
+  const cv::Mat& b = t.apply("never", "/k/image_depth", kCam, D, raw);
   EXPECT_TRUE(t.decidedAnew());
-  EXPECT_EQ(b.data, raw.data) << "false: the image itself";
-  EXPECT_FALSE(t.distorts()) << "false does not look at the lens";
-  // "false" never looks at the distortion: one it cannot take is no error there.
-  EXPECT_EQ(t.apply("false", "/k/image_depth", kCam, CameraLens{"fisheye", {1.0}, {}}, raw).data, raw.data);
+  EXPECT_EQ(b.data, raw.data) << "never: the image itself";
+  EXPECT_FALSE(t.distorts()) << "never does not look at the lens";
+  // "never" never looks at the distortion: one it cannot take is no error there.
+  EXPECT_EQ(t.apply("never", "/k/image_depth", kCam, CameraLens{"fisheye", {1.0}, {}}, raw).data, raw.data);
   EXPECT_NE(message([&] { t.apply("auto", "/k/image_depth", kCam, CameraLens{"fisheye", {1.0}, {}}, raw); }).find("'fisheye'"),
             std::string::npos);
 }

@@ -68,7 +68,7 @@ def test_a_raw_kinect_v2_frame_keeps_its_floor_unless_rectified() -> None:
     want = np.asarray(kp.Pipeline(CAM, config).process(rectified).ranges)
     floor = (obj == FLOOR) & (raw > 0)
     kept, near = {}, {}
-    for mode in ("false", "auto"):
+    for mode in ("never", "auto"):
         t = _core.TopicRectification()
         depth = t.apply(mode, "/kinect2/sd/image_depth", CAM, "plumb_bob", KINECT_V2_D, raw)
         res = kp.Pipeline(CAM, config).process(depth)
@@ -80,7 +80,7 @@ def test_a_raw_kinect_v2_frame_keeps_its_floor_unless_rectified() -> None:
         kept[mode] = float(np.mean(np.asarray(res.labels)[floor] == KEPT))
         both = np.isfinite(got) & np.isfinite(want)
         near[mode] = float(np.mean(np.abs(got - want)[both] < 0.03))
-    assert kept["false"] > 0.02 and near["false"] < 0.9, f"taken as rectified: {kept}, {near}"
+    assert kept["never"] > 0.02 and near["never"] < 0.9, f"taken as rectified: {kept}, {near}"
     assert kept["auto"] < 0.001, f"floor pixels kept: {kept['auto']:.4f}"
     assert near["auto"] > 0.97, f"beams within 3 cm of the rectified frame's: {near['auto']:.3f}"
 
@@ -114,7 +114,7 @@ def test_replay_rectifies_a_raw_topic_and_takes_a_rect_topic_as_it_is(tmp_path: 
     assert "rectified: no (the topic's name says it is rectified" in r_rect.camera, r_rect.camera
     r_raw, got = _replay(tmp_path, "raw", "/kinect2/sd/image_depth", raw, "auto")
     assert "rectified: yes (pixels move up to 19.8 px" in r_raw.camera, r_raw.camera
-    _, as_is = _replay(tmp_path, "as_is", "/kinect2/sd/image_depth", raw, "false")
+    _, as_is = _replay(tmp_path, "as_is", "/kinect2/sd/image_depth", raw, "never")
     both = np.isfinite(got) & np.isfinite(want)
     assert np.mean(np.abs(got - want)[both] < 0.03) > 0.97
     both = np.isfinite(as_is) & np.isfinite(want)
@@ -185,7 +185,7 @@ def test_a_stereo_cameras_depth_is_taken_as_rectified_whatever_its_topics_name(t
     R = [np.cos(a), -np.sin(a), 0.0, np.sin(a), np.cos(a), 0.0, 0.0, 0.0, 1.0]
     _, rect, _ = _raw_frame(0)
     _bag(tmp_path / "stereo.bag", "/stereo/depth", [rect], KINECT_V2_D, R)
-    for mode, said in (("auto", "rectified: no (the camera_info's R rotates: a stereo camera's"), ("true", "yes")):
+    for mode, said in (("auto", "rectified: no (the camera_info's R rotates: a stereo camera's"), ("always", "yes")):
         out = tmp_path / f"out_{mode}.bag"
         r = replay(tmp_path / "stereo.bag", out, ReplayOptions(rectify=mode), show_progress=False)
         assert said in r.camera, r.camera

@@ -270,31 +270,33 @@ def test_a_crop_decimate_camera_info_gives_the_windows_camera(
     assert not int(newest(res, PROC, "dropped: image size differs from camera_info") or 0)
 
 
-@pytest.mark.parametrize(("kind", "image"), [("node", "sd/image_depth"), ("nodelet", "sd/image_depth_rect")])
+@pytest.mark.parametrize(
+    ("kind", "image", "rectify", "said"),
+    [
+        ("node", "sd/image_depth", "auto", "yes (pixels move up to"),
+        ("nodelet", "sd/image_depth_rect", "auto", "no (the topic's name says"),
+        ("node", "sd/image_depth", "never", "no (rectify never)"),
+    ],
+)
 def test_a_raw_topic_is_rectified_by_its_camera_infos_distortion(
-    ros: RosGraph, tmp_path: Path, kind: str, image: str
+    ros: RosGraph, tmp_path: Path, kind: str, image: str, rectify: str, said: str
 ) -> None:
     """kinect2_bridge's sd/image_depth is raw, its sd/image_depth_rect rectified, both with the IR lens's D; a
     rectified image's camera is its camera_info's P (image_proc rectifies with it), a raw one rectified here K's."""
-    launch_exact(ros, tmp_path, kind, f"image:={image}")
+    launch_exact(ros, tmp_path, kind, f"image:={image}", f"rectify:={rectify}")
     D = [0.0905, -0.2699, 0.0, 0.0, 0.0952]
     until = "len(scans) >= 3 and diag('rectified', 'processing') not in (None, '(no frame yet)')"
-    raw = image.endswith("image_depth")
+    here = said.startswith("yes")
     # The raw image is rectified here with K; the rectified one's camera is P's (image_geometry's): the other is off.
-    lens = ["--distortion", ",".join(map(str, D)), "--off", "P" if raw else "K"]
+    lens = ["--distortion", ",".join(map(str, D)), "--off", "P" if here else "K"]
     res = ros.feed("feed", "--noise-free", "--image", image, *lens, "--until", until)
-    said = newest(res, PROC, "rectified") or ""
-    assert said.startswith("yes (pixels move up to" if raw else "no (the topic's name says"), said
-    depth = kp.DepthRectifier(CAM, "plumb_bob", D).apply(frame()) if raw else frame()
+    assert (newest(res, PROC, "rectified") or "").startswith(said), newest(res, PROC, "rectified")
+    depth = kp.DepthRectifier(CAM, "plumb_bob", D).apply(frame()) if here else frame()
     want = core_ranges(depth, TILT)
     assert len(res["scans"]) >= 3 and all(same(s, want) for s in res["scans"]), "a scan differs from the core's"
-    said_once = [
-        m["msg"]
-        for m in res["logs"]
-        if f"the images on /kinect2/{image} rectified (camera_info distortion_model 'plumb_bob', ~rectify auto): "
-        in m["msg"]
-    ]
-    assert len(said_once) == 1, said_once
+    logged = f"the images on /kinect2/{image} rectified (camera_info distortion_model 'plumb_bob', ~rectify auto): "
+    said_once = [m["msg"] for m in res["logs"] if logged in m["msg"]]
+    assert len(said_once) == (rectify == "auto"), said_once  # "never" does not look at the lens
 
 
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
@@ -320,18 +322,20 @@ def test_invalid_startup_parameters_stop_the_node_naming_every_one(ros: RosGraph
         num_threads=5000,
         scan_beams="many",
         pose_source="laser",
+        rectify=False,  # YAML's boolean: the values are words
     )
     ros.launch("launch", "kinect_pipeline.launch", f"params:={params}", *manager)
     wait_for("the node / loader to exit 1", lambda: lines(ros.log("launch"), "process has died", "exit code 1"))
     said = [ln for ln in ros.log("launch").splitlines() if ln.startswith("  ~") or "not starting" in ln]
     text = "\n".join(said)
-    assert "5 parameters are invalid" in text, ros.log("launch")
+    assert "6 parameters are invalid" in text, ros.log("launch")
     for word in (
         "~ceiling_height = 0.5",
         "~open_kernel_size = 4",
         "~num_threads = 5000",
         "~scan_beams = 'many'",
         "~pose_source = 'laser'",
+        "~rectify = false (a bool): expected a string",
     ):
         assert word in text, f"'{word}' not in:\n{text}"
     assert "range_max" not in text  # a good value is not named

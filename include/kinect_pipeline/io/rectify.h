@@ -67,8 +67,8 @@ struct CameraLens
 };
 
 /**
- * @brief Whether the depth images on a topic are rectified before the pipeline, by a mode: "true" (when the
- *        camera_info has a distortion), "false", or "auto": as "true" unless the image topic's name says it is
+ * @brief Whether the depth images on a topic are rectified before the pipeline, by a mode: "always" (when the
+ *        camera_info has a distortion), "never", or "auto": as "always" unless the image topic's name says it is
  *        rectified already (its last name, before a transport's, holds "rect": image_rect, image_depth_rect,
  *        image_rect_raw), as ROS names its topics, or the camera is a stereo camera (CameraLens::stereo).
  * @param why set to what decided it, for messages
@@ -96,7 +96,7 @@ public:
   bool decidedAnew() const { return anew_; }
   /** Whether the last apply() rectified the image (else it is taken as rectified already). */
   bool rectifies() const { return wanted_; }
-  /** Whether the last frame's camera has a lens distortion that the mode looked at (not with "false"). */
+  /** Whether the last frame's camera has a lens distortion that the mode looked at (not with "never"). */
   bool distorts() const { return rectifier_ && !rectifier_->identity(); }
 
 private:

@@ -33,7 +33,7 @@ struct NodeSettings
   double pose_hold_time = 1.0;           ///< [s] the last good pose stands in this long when the source has nothing
   std::string pose_fallback = "static";  ///< after the hold: static | last | drop
   double pose_max_age = 0.5;             ///< [s] oldest imu / pitch topic message used
-  std::string rectify = "auto";          ///< auto | true | false (rectifyWanted, io/rectify.h)
+  std::string rectify = "auto";          ///< auto | always | never (rectifyWanted, io/rectify.h)
   /** The camera from ~intrinsics or ~camera_info_url; null: from the camera_info topic. */
   sensor_msgs::CameraInfoConstPtr camera_info;
   std::string camera_info_from;  ///< "~intrinsics = '...'" or "~camera_info_url = '...'", for messages

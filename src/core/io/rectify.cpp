@@ -145,10 +145,10 @@ bool CameraLens::stereo() const
 bool rectifyWanted(const std::string& mode, const std::string& image_topic, const DepthRectifier& rectifier,
                    bool stereo, std::string& why)
 {
-  if (mode != "auto" && mode != "true" && mode != "false")
-    throw std::invalid_argument("rectify = '" + mode + "': expected auto, true or false");
-  if (mode == "false")
-    why = "no (rectify false)";
+  if (mode != "auto" && mode != "always" && mode != "never")
+    throw std::invalid_argument("rectify = '" + mode + "': expected auto, always or never");
+  if (mode == "never")
+    why = "no (rectify never)";
   else if (rectifier.identity())
     why = "no (the camera_info has no distortion)";
   else
@@ -162,15 +162,15 @@ bool rectifyWanted(const std::string& mode, const std::string& image_topic, cons
     }
     name = name.substr(name.find_last_of('/') + 1);
     if (mode == "auto" && name.find("rect") != std::string::npos)
-      why = "no (the topic's name says it is rectified; rectify true to rectify it)";
+      why = "no (the topic's name says it is rectified; rectify always to rectify it)";
     else if (mode == "auto" && stereo)
-      why = "no (the camera_info's R rotates: a stereo camera's, whose depth images are rectified; rectify true to "
+      why = "no (the camera_info's R rotates: a stereo camera's, whose depth images are rectified; rectify always to "
             "rectify them)";
     else
     {
       std::ostringstream s;
       s.precision(3);
-      s << "yes (pixels move up to " << rectifier.maxShift() << " px" << (mode == "auto" ? "; rectify false if the "
+      s << "yes (pixels move up to " << rectifier.maxShift() << " px" << (mode == "auto" ? "; rectify never if the "
         "images are rectified already)" : ")");
       why = s.str();
       return true;
@@ -187,8 +187,8 @@ const cv::Mat& TopicRectification::apply(const std::string& mode, const std::str
   if (anew_)
   {
     rectifier_.reset();
-    // A distortion is looked at only where the mode may want it: "false" takes the images as they are.
-    const DepthRectifier r = mode == "false" ? DepthRectifier(camera, "", {}) : DepthRectifier(camera, lens.model, lens.D);
+    // A distortion is looked at only where the mode may want it: "never" takes the images as they are.
+    const DepthRectifier r = mode == "never" ? DepthRectifier(camera, "", {}) : DepthRectifier(camera, lens.model, lens.D);
     wanted_ = rectifyWanted(mode, image_topic, r, lens.stereo(), why_);
     rectifier_.emplace(r);
     mode_ = mode;

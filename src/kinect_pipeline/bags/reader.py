@@ -280,7 +280,7 @@ class Cameras:
         use_info = info_topic is not None and intrinsics is None
         self.infos = CameraInfos(bag, info_topic, on_damage) if use_info and info_topic else None
         self.warning = ""  #: the nominal camera is a guess: said once
-        #: auto | true | false: images rectified by their camera_info's distortion (the node's ~rectify)
+        #: auto | always | never: images rectified by their camera_info's distortion (the node's ~rectify)
         self.rectify, self.rectification = rectify, _core.TopicRectification()
         self.given = (
             f"intrinsics from {intrinsics.source}"
@@ -340,7 +340,7 @@ class Cameras:
             return self.rectification.apply(self.rectify, topic, cam, model, coefficients, depth, rotation or None)
         except ValueError as exc:
             raise BagError(
-                f"{exc} to rectify the images (--rectify {self.rectify}; false if they are rectified)"
+                f"{exc} to rectify the images (--rectify {self.rectify}; never if they are rectified)"
             ) from exc
 
 

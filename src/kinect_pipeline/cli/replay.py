@@ -45,7 +45,7 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--rectify",
-        choices=["auto", "true", "false"],
+        choices=["auto", "always", "never"],
         default="auto",
         help="rectify the depth images by their camera_info's distortion: auto (unless the depth topic's name holds "
         "'rect'), true or false (default: auto, as the node)",

@@ -90,10 +90,13 @@ def _descendants(pid: int) -> list[int]:
 
 
 def _stop(proc: subprocess.Popen[Any]) -> None:
+    """SIGINT to the process's group, SIGKILL at a deadline. The deadline outlasts roslaunch's own escalation (SIGINT,
+    15 s, SIGTERM, 2 s, SIGKILL): roslaunch starts its nodes in sessions of their own, which a SIGKILL of roslaunch's
+    group does not reach."""
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGINT)
         try:
-            proc.wait(timeout=15)
+            proc.wait(timeout=30)
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait(timeout=5)

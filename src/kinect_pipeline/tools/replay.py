@@ -60,7 +60,7 @@ class ReplayOptions:
     intrinsics: list[float] | None = None
     #: the intrinsics' lens (a camera_info YAML's distortion and projection: ``Intrinsics.lens``), or None
     lens: dict[str, Any] | None = None
-    #: images rectified by their camera_info's distortion: auto (unless the topic's name holds "rect"), true, false
+    #: images rectified by their camera_info's distortion: auto (unless the topic's name holds "rect"), always, never
     rectify: str = "auto"
 
     def cameras(self, bag: BagReader, info_topic: str | None, on_damage: Any = None) -> Cameras:
