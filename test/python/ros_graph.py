@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -78,6 +79,34 @@ class RosGraph(Processes):
         g.__dict__.update(self.__dict__)
         g.logdir, g.procs = logdir, []
         return g
+
+    def stop_all(self) -> None:
+        """Stops this graph's processes; the graph that started the roscore then checks that nothing it started is
+        left (a node that outlived its roslaunch: roslaunch starts nodes in sessions of their own), kills what is
+        (by PID) and fails naming it."""
+        owner = self.core is not None and self.core in self.procs
+        super().stop_all()
+        if owner:
+            deadline = time.monotonic() + 30
+            while self.leftovers() and time.monotonic() < deadline:
+                time.sleep(0.1)  # polled under the deadline: a process shutting down
+            left = self.leftovers()
+            for pid in left:
+                os.kill(pid, signal.SIGKILL)
+            assert not left, f"processes left running after the test: {left}"
+
+    def leftovers(self) -> dict[int, str]:
+        """PID -> command line of the processes whose ROS_HOME is this graph's."""
+        mine = f"\0ROS_HOME={self.env['ROS_HOME']}\0".encode()
+        found = {}
+        for p in Path("/proc").iterdir():
+            try:
+                env = b"\0" + (p / "environ").read_bytes() + b"\0" if p.name.isdigit() else b""
+                if mine in env and int(p.name) != os.getpid():
+                    found[int(p.name)] = (p / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            except OSError:  # gone meanwhile, or not ours to read
+                pass
+        return found
 
     def master(self) -> Any:
         import rosgraph

@@ -69,3 +69,21 @@ def test_soak_counts_every_frame_through_the_nodelet() -> None:
     assert (frames_in, out, dropped) == ("18", "18", "0"), text
     counters = re.search(r"its diagnostics at the end .*: frames in (\d+), frames out (\d+)", text)
     assert counters and int(counters[1]) >= 18 and counters[1] == counters[2], text
+
+
+def test_the_ros_tests_name_and_stop_a_node_that_outlives_its_roslaunch(tmp_path: Path) -> None:
+    """The graph that started a roscore checks at its end that nothing it started is left: here roslaunch is killed
+    outright, so the node it started (in a session of its own) is left behind."""
+    import signal
+
+    from ros_graph import RosGraph, wait_for
+
+    g = RosGraph(tmp_path)
+    g.start_core()
+    launch = g.launch("launch", "kinect_pipeline.launch", "pose_source:=static")
+    wait_for("the node", lambda: any("kinect_pipeline_node" in c for c in g.leftovers().values()))
+    os.killpg(launch.pid, signal.SIGKILL)
+    launch.wait(timeout=10)
+    with pytest.raises(AssertionError, match=r"processes left running after the test: .*kinect_pipeline_node"):
+        g.stop_all()
+    assert not g.leftovers(), "what was left is stopped"
