@@ -631,9 +631,11 @@ bool KinectPipelineRos::rectify(const NodeSettings& s, const sensor_msgs::Camera
 {
   try
   {
-    CameraLens lens{info.distortion_model, info.D, {}};
-    std::copy(info.R.begin(), info.R.end(), lens.R.begin());
-    depth = rectification_.apply(s.rectify, image_topic_, cam, lens, depth);
+    // Assigned into the member: no allocation per frame once it holds a lens of this size.
+    lens_.model = info.distortion_model;
+    lens_.D.assign(info.D.begin(), info.D.end());
+    std::copy(info.R.begin(), info.R.end(), lens_.R.begin());
+    depth = rectification_.apply(s.rectify, image_topic_, cam, lens_, depth);
   }
   catch (const std::invalid_argument& e)
   {

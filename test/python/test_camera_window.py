@@ -16,8 +16,6 @@ import kinect_pipeline as kp
 from kinect_pipeline import _core
 from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
-pytest.importorskip("rosbags")
-
 K = [365.0, 0.0, 255.5, 0.0, 366.0, 211.5, 0.0, 0.0, 1.0]
 FULL = kp.Camera(512, 424, 365.0, 366.0, 255.5, 211.5)
 HEIGHT, TILT = 1.1, 0.26

@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import cv2  # python3-opencv (the quick start installs it)
 import numpy as np
 import pytest
 from framebag import write_frames_bag
@@ -15,8 +16,6 @@ from framebag import write_frames_bag
 import kinect_pipeline as kp
 from kinect_pipeline import _core
 from kinect_pipeline.simulation.scenes import FLOOR, KEPT, lab_scene, render_frame
-
-cv2 = pytest.importorskip("cv2")
 
 FX, FY, CX, CY, W, H = 365.5, 365.5, 254.9, 205.4, 512, 424
 CAM = kp.Camera(W, H, FX, FY, CX, CY)

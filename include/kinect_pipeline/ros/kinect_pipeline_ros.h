@@ -198,6 +198,7 @@ private:
   FrameResult result_;
   cv::Mat swap_buffer_;
   TopicRectification rectification_;
+  CameraLens lens_;  // the frame's camera_info lens (rectify())
   Camera camera_;
   std::optional<GoodPose> last_good_;
   bool static_warned_ = false;       // the static pose's disagreement with tf was said in this fallback
