@@ -113,7 +113,7 @@ public:
    * @brief Processes one frame at a pose given whole (e.g. from tf): sensor_height, sensor_pitch and
    *        sensor_roll of the config are not used.
    * @throw std::invalid_argument as process(), and for a non-finite pose, a height <= 0 or >= ceiling_height,
-   *        or |pitch|, |roll| > pi/2.
+   *        or |pitch| > pi/2. Any roll is taken (turned by whole turns into [-pi, pi]; +-pi: upside down).
    */
   void process(const cv::Mat& depth, const SensorPose& pose, FrameResult& out,
                double stamp = std::numeric_limits<double>::quiet_NaN());

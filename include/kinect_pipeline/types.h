@@ -6,17 +6,22 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 namespace kinect_pipeline
 {
+constexpr double kPi = 3.14159265358979323846;
+
+/** The angle a [rad] turned by whole turns into [-pi, pi] (exactly a where it lies there already). */
+inline double wrapAngle(double a) { return std::remainder(a, 2.0 * kPi); }
 
 /** The sensor's pose relative to the floor for one frame (sensor mounting and base motion together). */
 struct SensorPose
 {
   double height;  ///< optical centre above the floor [m], > 0
   double pitch;   ///< [rad], + looks down, |pitch| <= pi/2
-  double roll;    ///< [rad], + right side down, |roll| <= pi/2
+  double roll;    ///< [rad], + right side down, |roll| <= pi (+-pi: upside down)
 };
 
 /** A correction of a sensor pose, added term by term: height [m], pitch and roll [rad]. */

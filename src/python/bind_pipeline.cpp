@@ -414,6 +414,7 @@ void bindTransforms(py::module_& m)
   m.def("roll_pitch_yaw", &rollPitchYaw, py::arg("q"), "(roll, pitch, yaw) of a quaternion (x, y, z, w).");
   m.def("quaternion_from_rpy", &quaternionFromRpy, py::arg("roll"), py::arg("pitch"), py::arg("yaw") = 0.0,
         "Quaternion (x, y, z, w) of R = Rz(yaw) Ry(pitch) Rx(roll).");
+  m.def("wrap_angle", &wrapAngle, py::arg("a"), "The angle a [rad] turned by whole turns into [-pi, pi].");
 }
 
 void bindSimd(py::module_& m)

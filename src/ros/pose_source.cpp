@@ -77,7 +77,7 @@ bool KinectPipelineRos::poseFor(const NodeSettings& s, const std_msgs::Header& h
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     static_minus_tf_ = SensorPose{fixed.height - pose.pose.height, fixed.pitch - pose.pose.pitch,
-                                  fixed.roll - pose.pose.roll};
+                                  wrapAngle(fixed.roll - pose.pose.roll)};
   }
   static_warned_ = false;  // a fallback from now on is a new one
   return true;
@@ -138,7 +138,7 @@ void KinectPipelineRos::warnIfStaticDisagrees(const NodeSettings& s, const Senso
   static_warned_ = true;
   const Config& k = s.core;
   const SensorPose& tf = last_good_->pose.pose;
-  const double dh = fixed.height - tf.height, dp = fixed.pitch - tf.pitch, dr = fixed.roll - tf.roll;
+  const double dh = fixed.height - tf.height, dp = fixed.pitch - tf.pitch, dr = wrapAngle(fixed.roll - tf.roll);
   std::ostringstream over;
   over.setf(std::ios::fixed);
   over.precision(2);

@@ -61,7 +61,7 @@ void checkScene(double height, double pitch, double roll, const Scene& s)
   const char* where = "renderScene";
   require(std::isfinite(height) && height > 0.0, where, "height", height, "a finite height above the floor > 0 m");
   require(std::fabs(pitch) <= M_PI / 2, where, "pitch", pitch, "a finite angle within +-pi/2 rad");
-  require(std::fabs(roll) <= M_PI / 2, where, "roll", roll, "a finite angle within +-pi/2 rad");
+  require(std::isfinite(roll), where, "roll", roll, "a finite angle");
   require(s.ceiling == 0.0 || (std::isfinite(s.ceiling) && s.ceiling > height), where, "ceiling", s.ceiling,
           "0 (none) or a finite height above the sensor's");
   require(std::isfinite(s.hole_depth) && s.hole_depth > 0.0, where, "hole_depth", s.hole_depth, "a finite depth > 0 m");

@@ -123,6 +123,29 @@ TEST(FloorFit, RecoversTheTruePoseOfAnEmptyFloor)
     }
 }
 
+TEST(FloorFit, RecoversAnUpsideDownPoseAcrossPlusMinusPi)
+{
+  // An upside-down camera, rolled to either side of +-180 deg, told a roll on the other side (or pi + 1 deg, which
+  // the pipeline takes as -pi + 1 deg): the fit lands on the renderer's pose, the roll turned into [-pi, pi].
+  for (const int type : {CV_16UC1, CV_32FC1})
+    for (const double roll : {M_PI, M_PI - 0.5 * kDeg, -M_PI + 0.5 * kDeg})
+    {
+      const SensorPose truth{1.0, 15 * kDeg, roll};
+      const cv::Mat depth = frameOf(Scene{}, truth, type);
+      for (const double told_roll : {M_PI, -M_PI, M_PI + 1 * kDeg, -M_PI - 1 * kDeg, roll + 1.5 * kDeg})
+      {
+        const FrameResult r = refined(depth, SensorPose{1.03, 16 * kDeg, told_roll});
+        SCOPED_TRACE(::testing::Message() << "type " << type << " roll " << roll << " told " << told_roll);
+        ASSERT_EQ(r.floor_fit.status, FloorFitStatus::kAccepted) << toString(r.floor_fit.status);
+        EXPECT_NEAR(r.pose.height, truth.height, 0.0005);
+        EXPECT_NEAR(r.pose.pitch, truth.pitch, 0.01 * kDeg);
+        EXPECT_NEAR(wrapAngle(r.pose.roll - truth.roll), 0.0, 0.01 * kDeg);
+        EXPECT_LE(std::fabs(r.pose.roll), M_PI);
+        EXPECT_LE(std::fabs(r.floor_fit.applied.roll), 2.5 * kDeg);  // the short way round
+      }
+    }
+}
+
 TEST(FloorFit, AgreesWithAPlainLeastSquaresPlaneThroughItsPixels)
 {
   // On a noisy floor without clutter the robust fit is a weighted least-squares fit: compare with cv::solve over

@@ -1,8 +1,8 @@
 // The core's fast paths against its reference paths (ReferencePaths, per Pipeline: the rule pixel by pixel, the
 // binning by pixel centres, cv::morphologyEx for the opening), on every scene, encoding and projection, with and
-// without roll, for each opening kernel: the labelling by value and the row kernels of the opening claim the
-// reference's bits; the binning from the bins' borders claims the centres' bins up to float rounding at a border.
-// And the hand-written AVX-512 paths against the portable loops, where the CPU has AVX-512.
+// without roll and upside down, for each opening kernel: the labelling by value and the row kernels of the opening
+// claim the reference's bits; the binning from the bins' borders claims the centres' bins up to float rounding at a
+// border. (Every SIMD target against the plain loops: the *EveryTarget* tests.)
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -34,8 +34,9 @@ struct Case
 
 std::string name(const Case& c)
 {
-  return cv::typeToString(c.type) + "_" + c.scene + "_pitch" + std::to_string(std::lround(c.pitch * 1000)) +
-         (c.roll != 0.0 ? "_roll" : "") + "_k" + std::to_string(c.kernel) + "_" + toString(c.projection) +
+  const char* roll = c.roll == 0.0 ? "" : (std::fabs(c.roll) == M_PI ? "_upside_down" : "_roll");
+  return cv::typeToString(c.type) + "_" + c.scene + "_pitch" + std::to_string(std::lround(c.pitch * 1000)) + roll +
+         (std::fabs(c.roll) > M_PI / 2 && std::fabs(c.roll) < M_PI ? "_over" : "") + "_k" + std::to_string(c.kernel) + "_" + toString(c.projection) +
          (c.scan_fov > 0.0 ? "_all_round" : "");
 }
 
@@ -167,6 +168,12 @@ std::vector<Case> cases()
   for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
     for (const auto& [pitch, roll] : {std::pair{1.3, 0.0}, {1.45, 0.03}})
       out.push_back({type, "around", pitch, roll, 3, Projection::kHorizontal, 2.0 * M_PI});
+  // Upside down (roll pi: the paths of a level mount, rows of one rise each) and rolled past it.
+  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+    for (const char* scene : {"lab", "hole"})
+      for (const auto& [pitch, roll] : {std::pair{0.26, M_PI}, {0.35, -M_PI + 0.035}})
+        for (const Projection p : {Projection::kHorizontal, Projection::kColumn})
+          out.push_back({type, scene, pitch, roll, 3, p});
   return out;
 }
 

@@ -271,7 +271,7 @@ def test_report_refuses_frames_without_any_floor(tmp_path: Path) -> None:
 # -- row 6: calibrate at any mounting roll ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("roll_deg", [-90, -80, -45, 0, 30, 45, 60, 80, 90])
+@pytest.mark.parametrize("roll_deg", [-180, -150, -90, -80, -45, 0, 30, 45, 60, 80, 90, 160, 180])
 def test_calibrate_finds_the_floor_at_any_roll_and_widening_never_loses_it(tmp_path: Path, roll_deg: float) -> None:
     from kinect_pipeline.simulation.scenes import lab_scene, render_frame
 
@@ -286,7 +286,7 @@ def test_calibrate_finds_the_floor_at_any_roll_and_widening_never_loses_it(tmp_p
         assert r.returncode == 0, (tilt, r.stderr)
         d = json.loads(r.stdout)
         assert abs(d["height"] - 1.0) < 0.01 and abs(d["pitch_deg"] - math.degrees(0.3)) < 0.3, (tilt, d)
-        assert abs(d["roll_deg"] - roll_deg) < 0.3, (tilt, d)
+        assert abs(math.remainder(d["roll_deg"] - roll_deg, 360.0)) < 0.3, (tilt, d)
 
 
 @needs_real
@@ -362,3 +362,140 @@ def test_a_camera_rolled_90_deg_through_the_pipeline_and_calibrate(tmp_path: Pat
     assert r.returncode == 0, r.stderr
     d = json.loads(r.stdout)
     assert abs(d["roll_deg"] - 90) < 0.3 and abs(d["pitch_deg"] - 20) < 0.3 and abs(d["height"] - height) < 0.01
+
+
+# -- row 8: an upside-down camera ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("roll_deg", [180.0, 176.0, -177.0])
+def test_an_upside_down_camera_through_the_pipeline(roll_deg: float) -> None:
+    """A camera mounted upside down (roll 180 deg, or a few degrees either side): labels against the ground truth,
+    the scan against the true nearest obstacle, a hole as a cliff; and the same frame turned a half turn, seen by the
+    camera turned with it at roll - 180 deg, gives the same labels (turned back) and the same scan."""
+    from kinect_pipeline.evaluation.metrics import missed_beams, phantom_beams
+    from kinect_pipeline.simulation.scenes import FLOOR, KEPT, Scene, ideal_scan, lab_scene, render_frame, truth_labels
+    from kinect_pipeline.tools.calibrate import rotated
+
+    cam = kp.kinect_v2_camera()
+    roll, pitch, height = math.radians(roll_deg), math.radians(18), 1.1
+    scene = Scene(boxes=lab_scene().boxes, holes=((1.5, 2.0, -0.3, 0.3),), ceiling=2.8)
+    f = render_frame(cam, scene, height, pitch, roll, "16UC1", seed=None)
+    cfg = _core.Config(sensor_height=height, sensor_pitch=pitch, sensor_roll=roll, refine_floor=False)
+    res = _core.Pipeline(cam, cfg).process(np.ascontiguousarray(f.depth))
+    labels, ranges = np.asarray(res.labels), np.asarray(res.ranges)
+    truth = truth_labels(f.truth)
+    assert (f.truth["object"] == FLOOR).mean() > 0.3
+    assert (labels == truth).mean() > 0.98
+    ideal = ideal_scan(f.truth, res.angle_min, res.angle_increment, len(ranges), truth == KEPT)
+    assert np.isfinite(ranges).sum() > 0.3 * len(ranges)
+    assert phantom_beams(ranges, ideal)[1].sum() == 0 and missed_beams(ranges, ideal).mean() < 0.01
+    a = res.angle_min + res.angle_increment * np.arange(len(ranges))
+    cliff = np.asarray(res.cliff_ranges)
+    near = np.isfinite(cliff) & (np.abs(a) < 0.1)
+    assert near.any() and np.all((cliff[near] > 1.4) & (cliff[near] < 2.1)), cliff[near]
+    # the half turn: the same camera rolled by -180 deg
+    depth2, cam2 = rotated(f.depth, cam, 2)
+    cfg2 = _core.Config(
+        sensor_height=height,
+        sensor_pitch=pitch,
+        sensor_roll=math.remainder(roll - math.pi, 2 * math.pi),
+        refine_floor=False,
+    )
+    res2 = _core.Pipeline(cam2, cfg2).process(depth2)
+    assert (np.rot90(np.asarray(res2.labels), 2) == labels).mean() > 0.9999
+    r2 = np.asarray(res2.ranges)
+    assert np.array_equal(np.isfinite(r2), np.isfinite(ranges))
+    both = np.isfinite(r2) & np.isfinite(ranges)
+    assert np.abs(r2[both] - ranges[both]).max() < 1e-3
+
+
+def test_an_upside_down_mounting_is_calibrated_and_its_frames_averaged_across_180_deg(tmp_path: Path) -> None:
+    """Frames of an upside-down camera whose rolls lie either side of 180 deg: each is found at its roll, and their
+    mean lies at 180 deg (not at 0, where a plain mean of 179 and -179 lands); through the binding and the CLI."""
+    from kinect_pipeline.simulation.scenes import lab_scene, render_frame
+    from kinect_pipeline.tools.calibrate import calibrate
+
+    cam = kp.kinect_v2_camera()
+    rolls = [179.0, -179.5, 179.5]
+    frames = [
+        render_frame(cam, lab_scene(), 1.0, 0.3, math.radians(r), "16UC1", seed=3 + i) for i, r in enumerate(rolls)
+    ]
+    cal = calibrate([(f"f{i}", f.metres.astype(np.float32)) for i, f in enumerate(frames)], cam)
+    assert cal.found and abs(cal.height - 1.0) < 0.01 and abs(math.degrees(cal.pitch) - math.degrees(0.3)) < 0.3
+    assert abs(math.remainder(math.degrees(cal.roll) - 179.67, 360.0)) < 0.3, cal
+    assert math.degrees(cal.roll_std) < 1.0, cal
+    assert any("roll spans 179.0..180.5 deg" in w for w in cal.warnings), cal.warnings  # 1.5 deg apart, not 358
+    assert any("only to a camera mounted upside down" in w for w in cal.warnings), cal.warnings
+    paths = []
+    for i, f in enumerate(frames):
+        paths.append(str(tmp_path / f"f{i}.png"))
+        cv2.imwrite(paths[-1], f.depth)
+    r = cli("calibrate", *paths, "--intrinsics", f"{cam.fx},{cam.fy},{cam.cx},{cam.cy}", "--json")
+    assert r.returncode == 0, r.stderr
+    d = json.loads(r.stdout)
+    told = dict(a.split(":=") for a in d["launch_args"].split())
+    assert (
+        abs(math.remainder(d["roll_deg"] - 179.67, 360.0)) < 0.3 and abs(float(told["sensor_roll"]) - d["roll"]) < 1e-4
+    )
+    assert "3 of 3 frames (f0.png, f1.png, f2.png) show their floor only to a camera mounted upside down" in r.stderr
+
+
+def test_a_ceiling_seen_by_an_upright_camera_is_not_silently_taken_for_an_upside_down_floor() -> None:
+    """The half-turn search's known twin: an upright camera looking up at a ceiling, with no floor in view, sees
+    what an upside-down camera sees of a floor. calibrate cannot tell them apart, so it says so."""
+    from kinect_pipeline.simulation.scenes import Scene, render_frame
+    from kinect_pipeline.tools.calibrate import calibrate
+
+    cam = kp.kinect_v2_camera()
+    f = render_frame(cam, Scene(ceiling=2.4), 1.2, math.radians(-40), 0.0, "16UC1", seed=3)
+    cal = calibrate([("ceiling.png", f.metres.astype(np.float32))], cam)
+    assert cal.found and abs(abs(math.degrees(cal.roll)) - 180) < 0.5 and abs(cal.height - 1.2) < 0.01
+    assert cal.warnings == [
+        "1 of 1 frames (ceiling.png) show their floor only to a camera mounted upside down (roll near 180 deg): a "
+        "ceiling seen by an upright camera that sees no floor looks the same; check the mounting"
+    ]
+
+
+REAL_FLOORS = [
+    ("tum_nyu_sun_open3d/NYU_depth_mm.png", (582.6, 582.7, 313.0, 238.4), 0.001),
+    ("tum_nyu_sun_open3d/TUM_depth.png", (525.0, 525.0, 319.5, 239.5), 0.0002),
+    ("slambook2/ch7/1_depth.png", (520.9, 521.0, 325.1, 249.7), 0.0002),
+]
+
+
+@pytest.mark.parametrize(("name", "intr", "scale"), REAL_FLOORS)
+def test_a_real_frame_turned_upside_down_gives_the_same_floor_and_scan(name: str, intr: tuple, scale: float) -> None:
+    """A real frame turned a half turn is what the camera would have seen mounted upside down (its principal point
+    turned with it): calibrate finds the same height and pitch and the roll 180 deg away, and the pipeline at each
+    pose gives the same labels (turned) and the same scan."""
+    from kinect_pipeline.tools.calibrate import calibrate, depth_metres, rotated
+
+    path = REAL / name
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    raw = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    metres = depth_metres(raw, scale, 12.0, name)
+    cam = _core.Camera(raw.shape[1], raw.shape[0], *intr)
+    up = calibrate([("up", metres)], cam)
+    m2, cam2 = rotated(metres, cam, 2)
+    down = calibrate([("down", m2)], cam2)
+    assert up.found and down.found
+    assert abs(down.height - up.height) < 0.005 and abs(math.degrees(down.pitch - up.pitch)) < 0.1
+    assert abs(math.degrees(math.remainder(down.roll - up.roll - math.pi, 2 * math.pi))) < 0.1
+    assert abs(math.degrees(down.roll)) > 150
+    # the refinement's grid of sampled pixels does not turn with the frame; the beams' span, the camera's, turns
+    # with its principal point unless it is given
+    fixed = {"refine_floor": False, "scan_fov": 1.0, "scan_beams": 500}
+    res = [
+        _core.Pipeline(c, _core.Config(sensor_height=up.height, sensor_pitch=up.pitch, sensor_roll=r, **fixed)).process(
+            m
+        )
+        for m, c, r in ((metres, cam, up.roll), (m2, cam2, math.remainder(up.roll + math.pi, 2 * math.pi)))
+    ]
+    assert (np.rot90(np.asarray(res[1].labels), 2) != np.asarray(res[0].labels)).sum() <= 10  # 0 when written
+    a, b = np.asarray(res[0].ranges), np.asarray(res[1].ranges)
+    assert np.array_equal(np.isfinite(a), np.isfinite(b)) and np.isfinite(a).sum() > 50
+    both = np.isfinite(a)
+    # a pixel whose centre lies within float rounding of a beam's border may fall to either beam (the bearings run
+    # the other way across the turned image): a few beams at most, at an edge
+    assert (np.abs(a[both] - b[both]) > 0.001).sum() <= 2, np.abs(a - b)[both]  # 0 when this was written

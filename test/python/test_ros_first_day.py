@@ -522,6 +522,38 @@ def test_scan_frame_is_broadcast_without_tf(ros: RosGraph, tmp_path: Path, kind:
     assert {s["frame_id"] for s in res["scans"]} == {"kinect2_scan"}
 
 
+@pytest.mark.parametrize(("kind", "source"), [("node", "tf"), ("nodelet", "static")])
+def test_an_upside_down_camera_scans_as_the_core_does(ros: RosGraph, tmp_path: Path, kind: str, source: str) -> None:
+    """A camera mounted upside down: its optical frame rolled 180 deg in the robot's tf, or sensor_roll pi. Before,
+    the node refused both (|roll| <= 90 deg). Its scans are the core's, and the upright camera's."""
+    params = yaml_file(tmp_path / "p.yaml", refine_floor=False, sensor_height=HEIGHT, sensor_roll=math.pi)
+    manager = manager_args(ros, kind)
+    ros.launch(
+        "launch",
+        "kinect_pipeline.launch",
+        f"pose_source:={source}",
+        f"sensor_pitch:={TILT}",
+        f"params:={params}",
+        *manager,
+    )
+    pose = f"{HEIGHT},{TILT},{math.pi}"
+    tf = ["--tf", pose] if source == "tf" else []
+    until = "len(scans) >= 3" + (" and len(tfs) >= 3" if source == "static" else "")
+    res = ros.feed("feed", "--noise-free", "--render", pose, *tf, "--until", until)
+    upside_down = render_frame(CAM, boxes_scene(), HEIGHT, TILT, math.pi, "16UC1", seed=None).depth
+    want = core_ranges(upside_down, TILT, sensor_roll=math.pi)
+    assert len(res["scans"]) >= 3 and all(same(s, want) for s in res["scans"]), "a scan differs from the core's"
+    upright = core_ranges(frame(), TILT)  # CAM's principal point is the image's centre: the half turn is exact
+    assert np.array_equal(np.isfinite(want), np.isfinite(upright)) and np.isfinite(want).sum() > 100
+    seen = np.isfinite(want)
+    assert np.abs(want[seen] - upright[seen]).max() < 1e-3
+    assert not int(newest(res, PROC, "dropped: refused by the core") or 0) and not int(
+        newest(res, PROC, "dropped: no pose") or 0
+    )
+    for t in res["tfs"] if source == "static" else []:  # the scan frame, level, below the rolled optical frame
+        np.testing.assert_allclose(_rotation(t["q"]), _level_frame_rotation(TILT, math.pi), atol=1e-6)
+
+
 # ------------------------------------------------------------------------------------------------------------ item 7
 @pytest.mark.parametrize("kind", ["node", "nodelet"])
 def test_launch_arguments_reach_the_node_and_the_tf_wait_is_reported_apart(

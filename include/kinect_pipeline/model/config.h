@@ -73,7 +73,7 @@ struct Config
 {
   double sensor_height = 1.1;   ///< height of the optical centre above the floor [m], > 0
   double sensor_pitch = 0.0;    ///< static tilt of the sensor on the base [rad], + looks down
-  double sensor_roll = 0.0;     ///< static roll of the sensor on the base [rad], + right side down
+  double sensor_roll = 0.0;     ///< static roll of the sensor on the base [rad], + right side down, +-pi upside down
   double ceiling_height = 2.0;  ///< height of the ceiling plane above the floor [m], > sensor_height
   double max_depth = 12.0;      ///< depth of 8-bit value 255 [m] (value v <-> v / 255 * max_depth)
 

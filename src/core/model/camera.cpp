@@ -1,4 +1,5 @@
 #include "kinect_pipeline/model/camera.h"
+#include "kinect_pipeline/types.h"
 
 #include <cmath>
 #include <sstream>
@@ -8,7 +9,6 @@ namespace kinect_pipeline
 {
 namespace
 {
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinFocal = 1e-2, kMaxFocal = 1e6;  // [px]
 constexpr double kMaxPrincipal = 1e6;                // [px]
 

@@ -1,6 +1,7 @@
 // The table of Config fields (model/config_table.h). The ranges are those of cfg/KinectPipeline.cfg, which
 // test/python/test_ros_params.py compares with this table.
 #include "kinect_pipeline/model/config_table.h"
+#include "kinect_pipeline/types.h"
 
 #include <cmath>
 #include <iomanip>
@@ -12,8 +13,6 @@ namespace kinect_pipeline
 {
 namespace
 {
-constexpr double kPi = 3.14159265358979323846;
-
 ConfigField row(const char* name, FieldKind kind, double lo, double hi, const char* unit, const char* doc)
 {
   ConfigField f{};
@@ -63,7 +62,7 @@ std::vector<ConfigField> makeTable()
   return {
       real("sensor_height", &C::sensor_height, 0.01, 100.0, "m", "Height of the optical centre above the floor"),
       real("sensor_pitch", &C::sensor_pitch, -kPi / 2, kPi / 2, "rad", "Static tilt of the sensor on the base, + looks down"),
-      real("sensor_roll", &C::sensor_roll, -kPi / 2, kPi / 2, "rad", "Static roll of the sensor on the base, + right side down"),
+      real("sensor_roll", &C::sensor_roll, -kPi, kPi, "rad", "Static roll of the sensor on the base, + right side down, +-pi upside down"),
       real("ceiling_height", &C::ceiling_height, 0.02, 100.0, "m", "Height of the ceiling plane above the floor; above sensor_height"),
       real("max_depth", &C::max_depth, 0.1, 1000.0, "m", "Depth of 8-bit value 255 (8-bit normalised input)"),
       choice("geometry", {"exact", "thesis"}, "Plane prediction: 'exact' (pinhole ray / plane) or 'thesis' (eq 4.10-4.18)",

@@ -190,8 +190,6 @@ void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binne
   out.times.confidence = msSince(t1);
 }
 
-constexpr double kHalfPi = 1.57079632679489661923;
-
 /** @throw std::invalid_argument for a CV_32FC1 image that is plainly millimetres: the median of its valid pixels,
  *  on a subsample of about 4096, above kMillimetreMedian. */
 // v: scratch for the samples (cleared; its capacity is kept from frame to frame: no allocation once warm).
@@ -243,12 +241,11 @@ void checkImage(const cv::Mat& depth, const Camera& camera, std::vector<float>& 
 void checkPose(const SensorPose& pose, double ceiling_height)
 {
   const double pitch = pose.pitch, roll = pose.roll, height = pose.height;
-  if (!std::isfinite(pitch) || !std::isfinite(roll) || std::fabs(pitch) > kHalfPi + 1e-9 ||
-      std::fabs(roll) > kHalfPi + 1e-9)
+  if (!std::isfinite(pitch) || !std::isfinite(roll) || std::fabs(pitch) > kPi / 2 + 1e-9)
   {
     std::ostringstream s;
     s << "pose: pitch = " << pitch << " rad, roll = " << roll
-      << " rad (sensor + base): expected finite values with |pitch|, |roll| <= pi/2";
+      << " rad (sensor + base): expected finite values with |pitch| <= pi/2 (any roll)";
     throw std::invalid_argument(s.str());
   }
   if (!(std::isfinite(height) && height > 0.0 && height < ceiling_height))
@@ -330,6 +327,7 @@ void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResul
   const auto t0 = Clock::now();
   detail::checkImage(input, camera_, work_->samples);
   detail::checkPose(prior, config_.ceiling_height);
+  const SensorPose wrapped{prior.height, prior.pitch, wrapAngle(prior.roll)};  // sensor + base roll may pass pi
   const int threads = config_.num_threads > 0 ? config_.num_threads : detail::defaultThreads();
   const bool despeckle = config_.speckle_jump > 0.0;
   out.speckles = despeckle ? detail::removeSpeckles(input, config_.speckle_jump, work_->despeckled, threads) : 0;
@@ -347,7 +345,7 @@ void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResul
     lut_valid_ = true;
   }
   const auto t_fit = Clock::now();
-  out.pose = floor_fit_.refine(depth, camera_, config_, lut_, prior, stamp, out.floor_fit);
+  out.pose = floor_fit_.refine(depth, camera_, config_, lut_, wrapped, stamp, out.floor_fit);
   if (planes_.update(camera_, config_, out.pose.height, out.pose.pitch, out.pose.roll))
     projector_.setPose(out.pose.pitch, out.pose.roll);
   if (config_.refine_floor && config_.floor_profile_max > 0.0)

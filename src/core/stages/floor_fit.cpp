@@ -17,7 +17,6 @@ namespace kinect_pipeline
 {
 namespace
 {
-constexpr double kHalfPi = 1.57079632679489661923;
 // Pixels sampled per frame, about (a regular grid of every stride-th pixel): a few thousand give the plane to a
 // fraction of a millimetre at a few microseconds.
 constexpr double kSamples = 2500.0;
@@ -61,8 +60,8 @@ constexpr int kLanes = detail::kNormalLanes;  // whole lanes of the normal equat
 
 bool poseIsValid(const SensorPose& p, const Config& c)
 {
-  return std::isfinite(p.height) && p.height > 0.0 && p.height < c.ceiling_height && std::fabs(p.pitch) <= kHalfPi &&
-         std::fabs(p.roll) <= kHalfPi;
+  return std::isfinite(p.height) && p.height > 0.0 && p.height < c.ceiling_height && std::fabs(p.pitch) <= kPi / 2 &&
+         std::isfinite(p.roll);
 }
 
 /** Whether each term of c lies within factor times its floor_max_*_error. */
@@ -75,12 +74,12 @@ bool withinBounds(const PoseCorrection& c, const Config& cfg, double factor)
 
 SensorPose plus(const SensorPose& p, const PoseCorrection& c)
 {
-  return {p.height + c.height, p.pitch + c.pitch, p.roll + c.roll};
+  return {p.height + c.height, p.pitch + c.pitch, wrapAngle(p.roll + c.roll)};  // roll: upside down is +-pi
 }
 
 PoseCorrection minus(const SensorPose& a, const SensorPose& b)
 {
-  return {a.height - b.height, a.pitch - b.pitch, a.roll - b.roll};
+  return {a.height - b.height, a.pitch - b.pitch, wrapAngle(a.roll - b.roll)};
 }
 
 template <typename T>

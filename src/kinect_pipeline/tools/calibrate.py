@@ -246,11 +246,12 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
     w = np.array([r["floor_pixels"] for r in good], float)
 
     def mean(key: str) -> float:
-        return float(np.average([r[key] for r in good], weights=w))
+        m = float(np.average(pose_values(good, key), weights=w))
+        return _core.wrap_angle(m) if key == "roll" else m
 
     def spread(key: str) -> float:
         fit = float(np.sqrt(np.mean([r[f"{key}_std"] ** 2 for r in good])) / math.sqrt(len(good)))
-        between = float(np.std([r[key] for r in good], ddof=1) / math.sqrt(len(good))) if len(good) > 1 else 0.0
+        between = float(np.std(pose_values(good, key), ddof=1) / math.sqrt(len(good))) if len(good) > 1 else 0.0
         return max(fit, between)
 
     return Calibration(
@@ -263,8 +264,30 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
         spread("pitch"),
         spread("roll"),
         per,
-        warnings=disagreement(good) + weak_fits(good) + refusals(refused, len(per)),
+        warnings=disagreement(good) + weak_fits(good) + refusals(refused, len(per)) + upside_down(good),
     )
+
+
+def pose_values(fits: list[dict[str, Any]], key: str) -> list[float]:
+    """The fits' values of a pose term; rolls turned to lie within half a turn of the first fit's (an upside-down
+    camera's lie either side of +-180 deg), so that their mean and spread are those of the angles."""
+    if key != "roll":
+        return [r[key] for r in fits]
+    ref = fits[0]["roll"]
+    return [ref + _core.wrap_angle(r["roll"] - ref) for r in fits]
+
+
+def upside_down(good: list[dict[str, Any]]) -> list[str]:
+    """A warning where the floor was found only in the frame turned a half turn: an upright camera that sees a
+    ceiling and no floor gives the same plane."""
+    turned = [Path(str(r.get("file", "frame"))).name for r in good if r.get("turns") == 2]
+    if not turned:
+        return []
+    return [
+        f"{len(turned)} of {len(good)} frames ({', '.join(turned[:3])}{', ...' if len(turned) > 3 else ''}) show "
+        "their floor only to a camera mounted upside down (roll near 180 deg): a ceiling seen by an upright camera "
+        "that sees no floor looks the same; check the mounting"
+    ]
 
 
 def refusals(refused: list[dict[str, Any]], frames: int) -> list[str]:
@@ -285,7 +308,7 @@ def disagreement(good: list[dict[str, Any]]) -> list[str]:
     """Warnings for pose terms whose frames disagree by more than DISAGREE and 3 sigma of their fits."""
     out = []
     for key, (limit, unit, k) in DISAGREE.items():
-        v = [r[key] for r in good]
+        v = pose_values(good, key)
         if len(v) < 2:
             continue
         span, fit = max(v) - min(v), 3 * max(r[f"{key}_std"] for r in good)
@@ -459,7 +482,8 @@ def check_tf(
             h, p, r, _ = _core.pose_from_optical_transform((q, t), base_frame_height)
             rec.update(tf_height=h, tf_pitch=p, tf_roll=r)
             if fit["found"]:
-                rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch", "roll")})
+                rec.update({f"diff_{k}": rec[f"tf_{k}"] - fit[k] for k in ("height", "pitch")})
+                rec["diff_roll"] = _core.wrap_angle(rec["tf_roll"] - fit["roll"])
     except BagError as exc:
         raise CalibrationError(str(exc)) from exc
     finally:
@@ -474,7 +498,8 @@ def check_tf(
             f"frame of the bag's tf tree ({known}), connected to the camera's"
         )
     warnings = [cameras.warning] if cameras.warning else []
-    warnings += weak_fits([f for f in fits if f["found"]]) + refusals([f for f in fits if f.get("message")], len(fits))
+    found = [f for f in fits if f["found"]]
+    warnings += weak_fits(found) + refusals([f for f in fits if f.get("message")], len(fits)) + upside_down(found)
     return TfCheck(str(bag), depth_topic, frames, cameras.source, warnings)
 
 
@@ -588,14 +613,13 @@ def fit_floor(
 
     The frame as it is is searched first (within ``max_tilt`` of the image's up); where that finds no plausible
     floor (under WEAK_FRACTION of the pixels, or more than BELOW_MAX of them below it), the frame turned by a
-    quarter turn either way is searched too (portrait and side cameras), and the plausible fit that explains the
-    most is taken: a wider search only adds candidates, it never loses one. A fit that leaves more than BELOW_MAX
-    below it is refused (``found`` False, ``message`` says why). Also returns ``below_floor`` (that fraction)."""
+    quarter turn either way (portrait and side cameras, a roll within 90 deg) and by a half turn (upside down,
+    within ``max_tilt`` of the image's down) is searched too, and the plausible fit that explains the most is
+    taken: a wider search only adds candidates, it never loses one. A fit that leaves more than BELOW_MAX below it
+    is refused (``found`` False, ``message`` says why). Also returns ``below_floor`` (that fraction)."""
     tilt = float(max_tilt)
-    stages = [
-        [(0, t) for t in sorted({min(tilt, math.radians(40.0)), tilt})],
-        [(k, max(tilt, TURN_CONE)) for k in (1, 3)],
-    ]
+    cones = sorted({min(tilt, math.radians(40.0)), tilt})
+    stages = [[(0, t) for t in cones], [(k, max(tilt, TURN_CONE)) for k in (1, 3)] + [(2, t) for t in cones]]
     seen: list[dict[str, Any]] = []
     for stage in stages:
         for k, cone in stage:
@@ -611,7 +635,9 @@ def fit_floor(
     none: dict[str, Any] = {k: 0.0 for k in NO_FLOOR}
     none.update(found=False, floor_pixels=0, below_floor=0.0, turns=0)
     if seen:
-        worst = min(seen, key=lambda c: c["below_floor"])
+        # a half turn's plane (a ceiling, seen as an upside-down camera's floor) only where no other was found
+        named = [c for c in seen if c["turns"] != 2] or seen
+        worst = min(named, key=lambda c: c["below_floor"])
         none["message"] = (
             f"the floor-like plane found ({worst['height']:.2f} m below the camera, pitch "
             f"{math.degrees(worst['pitch']):.0f} deg, roll {math.degrees(worst['roll']):.0f} deg) leaves "
@@ -627,16 +653,17 @@ def _turned_fit(
     metres: np.ndarray, camera: _core.Camera, k: int, cone: float, max_tilt: float, model: str, options: dict[str, Any]
 ) -> dict[str, Any] | None:
     """The core's fit of the frame turned by k quarter turns, as the pose of the camera as mounted, with the
-    fraction of the pixels it leaves below the floor; None where nothing is found or the pose is out of range
-    (|pitch| > max_tilt, |roll| beyond 90 deg by more than 1 deg: the Config takes +-90 deg; within it, clamped)."""
+    fraction of the pixels it leaves below the floor; None where nothing is found, a turned frame's pitch is
+    beyond max_tilt, or a quarter turn's roll is beyond 90 deg by more than 1 deg (a wall beside a camera rolled
+    115 deg looks like a floor: real kitchen frames)."""
     m, cam = rotated(metres, camera, k)
     r = dict(_core.calibrate_from_floor(m, cam, max_tilt=cone, **options))
     if not r["found"]:
         return None
-    roll = math.remainder(r["roll"] - k * math.pi / 2, 2 * math.pi)
-    if abs(roll) > math.pi / 2 + math.radians(1.0) or (k and abs(r["pitch"]) > max_tilt):
+    roll = _core.wrap_angle(r["roll"] - k * math.pi / 2)
+    if (k and abs(r["pitch"]) > max_tilt) or (k % 2 and abs(roll) > math.pi / 2 + math.radians(1.0)):
         return None
-    r.update(roll=max(-math.pi / 2, min(math.pi / 2, roll)), turns=k)
+    r.update(roll=roll, turns=k)
     config = {"sensor_model": model} if model else {}
     cfg = _core.Config(
         **config,
