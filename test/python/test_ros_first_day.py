@@ -524,9 +524,11 @@ def test_scan_frame_is_broadcast_without_tf(ros: RosGraph, tmp_path: Path, kind:
 
 @pytest.mark.parametrize(("kind", "source"), [("node", "tf"), ("nodelet", "static")])
 def test_an_upside_down_camera_scans_as_the_core_does(ros: RosGraph, tmp_path: Path, kind: str, source: str) -> None:
-    """A camera mounted upside down: its optical frame rolled 180 deg in the robot's tf, or sensor_roll pi. Before,
-    the node refused both (|roll| <= 90 deg). Its scans are the core's, and the upright camera's."""
-    params = yaml_file(tmp_path / "p.yaml", refine_floor=False, sensor_height=HEIGHT, sensor_roll=math.pi)
+    """A camera mounted upside down: its optical frame rolled 180 deg in the robot's tf, or sensor_roll deg(180).
+    Before, the node refused both (|roll| <= 90 deg). Its scans are the core's, and the upright camera's."""
+    params = yaml_file(tmp_path / "p.yaml", refine_floor=False, sensor_height=HEIGHT)
+    with open(params, "a") as f:
+        f.write("sensor_roll: deg(180)\n")  # rosparam's angle form: exactly pi
     manager = manager_args(ros, kind)
     ros.launch(
         "launch",
