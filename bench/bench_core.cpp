@@ -109,6 +109,7 @@ struct Options
 {
   int frames = 300, kernel = 3;
   double surface_band = 0.0;
+  double roll = 0.0;  // the mount's roll [rad]: the frames are rendered and processed at it
   bool refine_floor = true, markdown = false;
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
@@ -135,6 +136,7 @@ Config benchConfig(const Options& o, int threads)
   Config cfg;
   cfg.sensor_height = kHeight;
   cfg.sensor_pitch = kPitch;
+  cfg.sensor_roll = o.roll;
   cfg.open_kernel_size = o.kernel;
   cfg.projection = projectionFromString(o.projection);
   cfg.num_threads = threads;
@@ -230,6 +232,16 @@ int parseOptions(int argc, char** argv, Options& o)
         return 2;
       }
     }
+    else if (a == "--roll" && value)
+    {
+      char* end = nullptr;
+      o.roll = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0')
+      {
+        std::fprintf(stderr, "--roll: '%s' is not a number [rad]\n", argv[i]);
+        return 2;
+      }
+    }
     else if (a == "--no-refine-floor")
       o.refine_floor = false;
     else if (a == "--markdown")
@@ -271,7 +283,7 @@ int parseOptions(int argc, char** argv, Options& o)
       std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] "
                            "[--encodings 8UC1,16UC1,32FC1] [--simd native|avx512|avx2|sse4|scalar,...] "
                            "[--reference none|all|labels+binning+opening+portable,...] [--surface-band B] "
-                           "[--no-refine-floor] [--markdown]\n", argv[0]);
+                           "[--roll RAD] [--no-refine-floor] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -341,8 +353,8 @@ void printTable(const Options& o, const std::vector<Row>& rows)
   const std::string opening =
       o.kernel < 3 ? "no opening" : "opening " + std::to_string(o.kernel) + "x" + std::to_string(o.kernel) + " rect";
   std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, %s, %s projection, surface_band %g, pitch "
-              "changing every frame\n",
-              o.frames, opening.c_str(), o.projection.c_str(), o.surface_band);
+              "changing every frame, roll %g rad\n",
+              o.frames, opening.c_str(), o.projection.c_str(), o.surface_band, o.roll);
   if (o.markdown)
   {
     std::printf("| encoding | simd | threads | reference paths | memcpy [ms] | prepare | (floor fit) | erode | "
@@ -390,7 +402,7 @@ int main(int argc, char** argv)
   cv::setNumThreads(0);
   const Camera cam = Camera::fromFov(512, 424, 1.2322, 1.0472);
   Rendering rendering;
-  renderScene(cam, kHeight, kPitch, 0.0, labScene(), rendering);
+  renderScene(cam, kHeight, kPitch, o.roll, labScene(), rendering);
   cv::Mat metres = rendering.depth.clone();
   addKinectNoise(metres, 1);
   std::vector<Row> rows;

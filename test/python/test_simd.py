@@ -132,6 +132,8 @@ def test_a_reference_path_the_pipeline_lacks_is_refused(name: str) -> None:
         (["--reference", ""], "--reference: names nothing to measure"),
         (["--encodings", ""], "--encodings: names nothing to measure"),
         (["--threads", ""], "--threads: names nothing to measure"),
+        (["--roll", "abc"], "--roll: 'abc' is not a number [rad]"),
+        (["--roll", "4"], "Config.sensor_roll = 4: expected a value in [-3.14159, 3.14159]"),
     ],
 )
 def test_the_bench_refuses_options_it_cannot_honour_naming_the_value(args: list[str], says: str) -> None:
@@ -148,6 +150,12 @@ def test_the_bench_cli_refuses_an_empty_list_and_passes_one_naming_nothing_throu
     assert r.returncode == 2 and "argument --encodings: an empty value" in r.stderr, r.stdout + r.stderr
     r = cli("bench", "--frames", "2", "--threads", ",")
     assert r.returncode == 2 and "--threads: names nothing to measure" in r.stderr, r.stdout + r.stderr
+
+
+def test_the_bench_at_a_roll_renders_and_processes_its_frames_there_and_says_so() -> None:
+    r = cli("bench", "--frames", "2", "--threads", "1", "--encodings", "8UC1", "--roll", "0.001")
+    assert r.returncode == 0, r.stderr
+    assert "pitch changing every frame, roll 0.001 rad" in r.stdout and re.search(r"^8UC1\s", r.stdout, re.M), r.stdout
 
 
 def test_the_bench_without_an_opening_says_so() -> None:

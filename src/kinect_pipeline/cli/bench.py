@@ -20,6 +20,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--encodings", help="comma-separated subset of 8UC1,16UC1,32FC1 (default: all three)")
     p.add_argument("--surface-band", type=float, default=0.0, help="the pipeline's surface_band [-]")
     p.add_argument(
+        "--roll",
+        type=float,
+        default=0.0,
+        help="the mount's roll the frames are rendered and processed at [rad]: any roll but 0 or +-pi takes the "
+        "per-pixel labels, as a base's roll from an IMU does",
+    )
+    p.add_argument(
         "--no-refine-floor",
         action="store_true",
         help="the frames without the floor refinement (refine_floor false), to see what it costs (default: on)",
@@ -61,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
         cmd += ["--encodings", args.encodings]
     if args.surface_band:
         cmd += ["--surface-band", str(args.surface_band)]
+    if args.roll:
+        cmd += ["--roll", repr(args.roll)]
     if args.no_refine_floor:
         cmd.append("--no-refine-floor")
     cmd += ["--simd", args.simd, "--reference", args.reference]
