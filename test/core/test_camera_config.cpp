@@ -49,6 +49,13 @@ TEST(Config, RefusesBadFieldsNamingThem)
   expectInvalid(with([](Config& c) { c.open_kernel_size = 4; }), {"open_kernel_size", "4", "odd"});
   expectInvalid(with([](Config& c) { c.range_max = 0.05; }), {"range_max", "range_min"});
   expectInvalid(with([](Config& c) { c.sensor_pitch = 2.0; }), {"sensor_pitch", "2"});
+  expectInvalid(with([](Config& c) { c.sensor_roll = 3.2; }), {"sensor_roll", "3.2"});
+  EXPECT_NO_THROW(with([](Config& c) { c.sensor_roll = -M_PI; })());  // upside down
+  expectInvalid(with([](Config& c) {
+                  c.geometry = Geometry::kThesis;
+                  c.sensor_roll = 2.0;
+                }),
+                {"sensor_roll = 2", "thesis", "upright"});
   expectInvalid(with([](Config& c) { c.confidence_window = 0; }), {"confidence_window", "0"});
   expectInvalid(with([](Config& c) { c.min_intensity = 1.5; }), {"min_intensity", "1.5"});
   expectInvalid(with([](Config& c) { c.threshold_curve = {{1.0, 0.1}}; }), {"threshold_curve", "1 point"});

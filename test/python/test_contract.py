@@ -361,6 +361,13 @@ def test_a_stamp_that_is_not_a_number_is_refused_naming_it(cam: kp.Camera) -> No
         (lambda c: kp.add_kinect_noise(np.ones((2, 2), np.float32), 1, dropout=1.5), ValueError, "dropout = 1.5"),
         (lambda c: kp.render_scene(kp.kinect_v2_camera(), -1.0, 0.3, 0.0), ValueError, "height = -1"),
         (lambda c: kp.render_scene(kp.kinect_v2_camera(), 1.0, 3.0, 0.0), ValueError, "pitch = 3"),
+        (
+            lambda c: kp.Pipeline(kp.kinect_v2_camera(), kp.Config(geometry="thesis")).process(
+                np.ones((424, 512), np.float32), 0.0, 2.0
+            ),
+            ValueError,
+            r"pose: roll = 2 rad \(sensor \+ base\) with geometry 'thesis': expected \|roll\| <= pi/2",
+        ),
         (lambda c: kp.morph_open(np.array([[1, np.nan, 1]] * 3, np.float32), 3), ValueError, "NaN at row 0, column 1"),
         (
             lambda c: kp.encode_compressed_depth(np.ones((2, 2), np.float32), depth_quantization=1e6),

@@ -380,8 +380,8 @@ def test_an_upside_down_camera_through_the_pipeline(roll_deg: float) -> None:
     roll, pitch, height = math.radians(roll_deg), math.radians(18), 1.1
     scene = Scene(boxes=lab_scene().boxes, holes=((1.5, 2.0, -0.3, 0.3),), ceiling=2.8)
     f = render_frame(cam, scene, height, pitch, roll, "16UC1", seed=None)
-    cfg = _core.Config(sensor_height=height, sensor_pitch=pitch, sensor_roll=roll, refine_floor=False)
-    res = _core.Pipeline(cam, cfg).process(np.ascontiguousarray(f.depth))
+    cfg_kw = {"sensor_height": height, "sensor_pitch": pitch, "sensor_roll": roll, "refine_floor": False}
+    res = _core.Pipeline(cam, _core.Config(**cfg_kw)).process(np.ascontiguousarray(f.depth))
     labels, ranges = np.asarray(res.labels), np.asarray(res.ranges)
     truth = truth_labels(f.truth)
     assert (f.truth["object"] == FLOOR).mean() > 0.3
@@ -395,18 +395,22 @@ def test_an_upside_down_camera_through_the_pipeline(roll_deg: float) -> None:
     assert near.any() and np.all((cliff[near] > 1.4) & (cliff[near] < 2.1)), cliff[near]
     # the half turn: the same camera rolled by -180 deg
     depth2, cam2 = rotated(f.depth, cam, 2)
-    cfg2 = _core.Config(
-        sensor_height=height,
-        sensor_pitch=pitch,
-        sensor_roll=math.remainder(roll - math.pi, 2 * math.pi),
-        refine_floor=False,
-    )
-    res2 = _core.Pipeline(cam2, cfg2).process(depth2)
+    cfg2_kw = {**cfg_kw, "sensor_roll": math.remainder(roll - math.pi, 2 * math.pi)}
+    res2 = _core.Pipeline(cam2, _core.Config(**cfg2_kw)).process(depth2)
     assert (np.rot90(np.asarray(res2.labels), 2) == labels).mean() > 0.9999
     r2 = np.asarray(res2.ranges)
     assert np.array_equal(np.isfinite(r2), np.isfinite(ranges))
     both = np.isfinite(r2) & np.isfinite(ranges)
     assert np.abs(r2[both] - ranges[both]).max() < 1e-3
+    # the thesis's column projection (each column one bearing): upside down its columns' bearings are mirrored
+    # (before, its scan came out left for right)
+    col = [
+        np.asarray(_core.Pipeline(c, _core.Config(projection="column", **kw)).process(d).ranges)
+        for c, d, kw in ((cam, np.ascontiguousarray(f.depth), cfg_kw), (cam2, depth2, cfg2_kw))
+    ]
+    seen = np.isfinite(col[0])
+    assert np.array_equal(seen, np.isfinite(col[1])) and seen.sum() > 0.3 * len(seen)
+    assert np.abs(col[0][seen] - col[1][seen]).max() < 1e-3
 
 
 def test_an_upside_down_mounting_is_calibrated_and_its_frames_averaged_across_180_deg(tmp_path: Path) -> None:

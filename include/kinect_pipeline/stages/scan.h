@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -196,7 +197,10 @@ private:
   std::vector<float> xn_, xe_;                    // per column centre / edge
   std::vector<float> xn2_;                        // xn^2 per column centre
   std::vector<float> yn_;                         // per row
-  std::vector<float> col_edge_bins_, col_centre_bins_, col_factor_;  // column projection
+  // Column projection: each column's bearing, [0] upright, [1] upside down (mirrored: cos roll < 0, setPose()).
+  std::array<std::vector<float>, 2> col_edge_bins_, col_centre_bins_;
+  std::vector<float> col_factor_;
+  int col_side_ = 0;
   float ax_ = 0.0f, ay_ = 0.0f;
   std::vector<float> bx_, by_;                    // horizontal projection, per row
   float cx_ = 0.0f, fx_ = 1.0f;                   // column u of a ray: cx + fx * xn

@@ -9,6 +9,7 @@
 #include "kinect_pipeline/model/config_table.h"
 #include "kinect_pipeline/model/sensor_model.h"
 #include "kinect_pipeline/model/threshold_curve.h"
+#include "kinect_pipeline/types.h"
 
 namespace kinect_pipeline
 {
@@ -163,6 +164,13 @@ std::vector<std::string> Config::problems() const
     s << "Config.ceiling_height = " << ceiling_height << " m is not above Config.sensor_height = " << sensor_height
       << " m: the ceiling plane must be above the sensor";
     p.check(ceiling_height > sensor_height, s);
+  }
+  if (valid("sensor_roll") && geometry == Geometry::kThesis)
+  {
+    std::ostringstream s;
+    s << "Config.sensor_roll = " << sensor_roll << " rad with geometry 'thesis': expected |sensor_roll| <= pi/2 (the "
+      << "thesis's planes are an upright camera's); geometry 'exact' takes a camera upside down";
+    p.check(std::fabs(sensor_roll) <= kPi / 2, s);
   }
   if (valid("range_min") && valid("range_max"))
   {

@@ -375,16 +375,21 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
   angle_min_ = static_cast<float>(lo + 0.5 * inc);
   angle_max_ = static_cast<float>(hi - 0.5 * inc);
 
-  col_edge_bins_.resize(width_ + 1);
   col_factor_.resize(width_);
-  for (int e = 0; e <= width_; ++e)
-    col_edge_bins_[e] = static_cast<float>((edge_angle[e] - lo) / inc);
-  col_centre_bins_.resize(width_);
-  for (int u = 0; u < width_; ++u)
+  for (int side = 0; side < 2; ++side)  // upside down, a column's bearing is the upright one's mirrored
   {
-    const double theta_x = thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan((u - camera.cx) / camera.fx);
-    col_factor_[u] = static_cast<float>(1.0 / std::cos(theta_x));
-    col_centre_bins_[u] = static_cast<float>((-theta_x - lo) / inc);
+    const double mirror = side == 0 ? 1.0 : -1.0;
+    col_edge_bins_[side].resize(width_ + 1);
+    for (int e = 0; e <= width_; ++e)
+      col_edge_bins_[side][e] = static_cast<float>((mirror * edge_angle[e] - lo) / inc);
+    col_centre_bins_[side].resize(width_);
+    for (int u = 0; u < width_; ++u)
+    {
+      const double theta_x =
+          thesis_columns ? (u - 0.5 * width_) / width_ * hfov : std::atan((u - camera.cx) / camera.fx);
+      col_factor_[u] = static_cast<float>(1.0 / std::cos(theta_x));
+      col_centre_bins_[side][u] = static_cast<float>((-mirror * theta_x - lo) / inc);
+    }
   }
   bx_.assign(height_, 1.0f);
   by_.assign(height_, 0.0f);
@@ -408,7 +413,10 @@ void ScanProjector::configure(const Camera& camera, const Config& config)
 void ScanProjector::setPose(double pitch, double roll)
 {
   if (projection_ == Projection::kColumn)
+  {
+    col_side_ = std::cos(roll) < 0.0 ? 1 : 0;  // the column model leaves pitch and roll out but for this
     return;
+  }
   // The ray (xn, yn, 1) in the level frame: x = ax xn + bx[r], y = ay xn + by[r].
   const std::array<double, 9> m = levelFromOptical(pitch, roll);
   ax_ = static_cast<float>(m[0]);
@@ -433,7 +441,7 @@ void ScanProjector::setPose(double pitch, double roll)
 const float* ScanProjector::rowEdgeBins(int r, float* buffer) const
 {
   if (projection_ == Projection::kColumn)
-    return col_edge_bins_.data();
+    return col_edge_bins_[col_side_].data();
   edgeBins(r, 0, width_, buffer);
   return buffer;
 }
@@ -448,7 +456,8 @@ void ScanProjector::spanBins(int r, int u0, int u1, const float* depth, float* f
 {
   const float beams = static_cast<float>(beams_);
   if (projection_ == Projection::kColumn)
-    detail::scanKernels().columns(col_centre_bins_.data(), col_factor_.data(), u0, u1, beams, depth, fb, key, range);
+    detail::scanKernels().columns(col_centre_bins_[col_side_].data(), col_factor_.data(), u0, u1, beams, depth, fb,
+                                  key, range);
   else
     detail::scanKernels().span_bins(xn_.data(), u0, u1, ax_, ay_, bx_[r], by_[r], lo_, 1.0f / inc_, beams, depth,
                                     fb, key, range);
@@ -561,8 +570,9 @@ void ScanProjector::rowCoverage(int r, float& lo, float& hi) const
 {
   if (projection_ == Projection::kColumn)
   {
-    lo = std::min({lo, col_edge_bins_.front(), col_edge_bins_.back()});
-    hi = std::max({hi, col_edge_bins_.front(), col_edge_bins_.back()});
+    const std::vector<float>& edges = col_edge_bins_[col_side_];
+    lo = std::min({lo, edges.front(), edges.back()});
+    hi = std::max({hi, edges.front(), edges.back()});
     return;
   }
   const float inv = 1.0f / inc_;
