@@ -130,6 +130,14 @@ bool integerIn(const char* text, long lo, long hi, int& out)
   return true;
 }
 
+// The whole of text as a number (strtod alone would take "3x" for 3).
+bool number(const char* text, double& out)
+{
+  char* end = nullptr;
+  out = std::strtod(text, &end);
+  return end != text && *end == '\0';
+}
+
 // The pipeline's settings of one row of the table.
 Config benchConfig(const Options& o, int threads)
 {
@@ -222,23 +230,12 @@ int parseOptions(int argc, char** argv, Options& o)
         o.types.push_back(t);
       }
     }
-    else if (a == "--surface-band" && value)
+    else if ((a == "--surface-band" || a == "--roll") && value)
     {
-      char* end = nullptr;
-      o.surface_band = std::strtod(argv[++i], &end);
-      if (end == argv[i] || *end != '\0')
+      // Numbers the Config's validation then checks (checkOptions).
+      if (!number(argv[++i], a == "--roll" ? o.roll : o.surface_band))
       {
-        std::fprintf(stderr, "--surface-band: '%s' is not a number\n", argv[i]);
-        return 2;
-      }
-    }
-    else if (a == "--roll" && value)
-    {
-      char* end = nullptr;
-      o.roll = std::strtod(argv[++i], &end);
-      if (end == argv[i] || *end != '\0')
-      {
-        std::fprintf(stderr, "--roll: '%s' is not a number [rad]\n", argv[i]);
+        std::fprintf(stderr, "%s: '%s' is not a number%s\n", a.c_str(), argv[i], a == "--roll" ? " [rad]" : "");
         return 2;
       }
     }
