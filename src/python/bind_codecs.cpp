@@ -147,7 +147,7 @@ void bindRectifier(py::module_& m)
       .def_property_readonly("rectifies", &TopicRectification::rectifies,
                              "The last apply() rectified the image (else it is taken as rectified already).")
       .def_property_readonly("distorts", &TopicRectification::distorts,
-                             "The last frame's camera has a lens distortion the mode looked at (not with 'false').");
+                             "The last frame's camera has a lens distortion the mode looked at (not with 'never').");
   m.def(
       "rectify_wanted",
       [](const std::string& mode, const std::string& image_topic, const DepthRectifier& r, bool stereo) {
@@ -156,7 +156,7 @@ void bindRectifier(py::module_& m)
         return py::make_tuple(yes, why);
       },
       py::arg("mode"), py::arg("image_topic"), py::arg("rectifier"), py::arg("stereo") = false,
-      "(whether, why): the images on image_topic are rectified before the pipeline, by mode 'true', 'false' or "
+      "(whether, why): the images on image_topic are rectified before the pipeline, by mode 'always', 'never' or "
       "'auto' (unless the topic's last name holds 'rect', as ROS names rectified images, or stereo: the camera_info's R "
       "rotates); the node's rule.");
 }

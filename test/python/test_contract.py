@@ -366,7 +366,7 @@ def test_a_stamp_that_is_not_a_number_is_refused_naming_it(cam: kp.Camera) -> No
                 np.ones((424, 512), np.float32), 0.0, 2.0
             ),
             ValueError,
-            r"pose: roll = 2 rad \(sensor \+ base\) with geometry 'thesis': expected \|roll\| <= pi/2",
+            r"pose: roll \(sensor \+ base\) = 2 rad with geometry 'thesis': expected \|roll\| <= pi/2",
         ),
         (lambda c: kp.morph_open(np.array([[1, np.nan, 1]] * 3, np.float32), 3), ValueError, "NaN at row 0, column 1"),
         (

@@ -138,4 +138,12 @@ struct Config
   void validate() const;
 };
 
+/**
+ * @brief What is wrong with a roll under a geometry: beyond +-pi/2 the thesis's planes (an upright camera's, which
+ *        leave the roll out) do not hold; any roll holds for the exact geometry.
+ * @param what the roll's name in the message ("Config.sensor_roll", "pose: roll")
+ * @return "" where it holds, else "<what> = <roll> rad with geometry 'thesis': expected ..."
+ */
+std::string rollProblem(double roll, Geometry geometry, const std::string& what);
+
 }  // namespace kinect_pipeline

@@ -165,13 +165,9 @@ std::vector<std::string> Config::problems() const
       << " m: the ceiling plane must be above the sensor";
     p.check(ceiling_height > sensor_height, s);
   }
-  if (valid("sensor_roll") && geometry == Geometry::kThesis)
-  {
-    std::ostringstream s;
-    s << "Config.sensor_roll = " << sensor_roll << " rad with geometry 'thesis': expected |sensor_roll| <= pi/2 (the "
-      << "thesis's planes are an upright camera's); geometry 'exact' takes a camera upside down";
-    p.check(std::fabs(sensor_roll) <= kPi / 2, s);
-  }
+  if (valid("sensor_roll") && valid("geometry"))
+    if (const std::string roll = rollProblem(sensor_roll, geometry, "Config.sensor_roll"); !roll.empty())
+      p.add(roll);
   if (valid("range_min") && valid("range_max"))
   {
     std::ostringstream s;
@@ -179,6 +175,16 @@ std::vector<std::string> Config::problems() const
     p.check(range_max > range_min, s);
   }
   return out;
+}
+
+std::string rollProblem(double roll, Geometry geometry, const std::string& what)
+{
+  if (geometry != Geometry::kThesis || std::fabs(roll) <= kPi / 2)
+    return "";
+  std::ostringstream s;
+  s << what << " = " << roll << " rad with geometry 'thesis': expected |roll| <= pi/2 (the thesis's planes are an "
+    << "upright camera's); geometry 'exact' takes a camera upside down";
+  return s.str();
 }
 
 void Config::validate() const

@@ -190,18 +190,6 @@ void scanStage(const cv::Mat& depth, const RowLoop& loop, const RowBinner& binne
   out.times.confidence = msSince(t1);
 }
 
-/** @throw std::invalid_argument for a roll beyond pi/2 with the thesis's geometry, whose planes ignore the roll. */
-void checkThesisRoll(double roll, Geometry geometry)
-{
-  if (geometry == Geometry::kThesis && std::fabs(roll) > kPi / 2)
-  {
-    std::ostringstream s;
-    s << "pose: roll = " << roll << " rad (sensor + base) with geometry 'thesis': expected |roll| <= pi/2 (the "
-      << "thesis's planes are an upright camera's); geometry 'exact' takes a camera upside down";
-    throw std::invalid_argument(s.str());
-  }
-}
-
 /** @throw std::invalid_argument for a CV_32FC1 image that is plainly millimetres: the median of its valid pixels,
  *  on a subsample of about 4096, above kMillimetreMedian. */
 // v: scratch for the samples (cleared; its capacity is kept from frame to frame: no allocation once warm).
@@ -340,7 +328,9 @@ void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResul
   detail::checkImage(input, camera_, work_->samples);
   detail::checkPose(prior, config_.ceiling_height);
   const SensorPose wrapped{prior.height, prior.pitch, wrapAngle(prior.roll)};  // sensor + base roll may pass pi
-  detail::checkThesisRoll(wrapped.roll, config_.geometry);
+  if (const std::string problem = rollProblem(wrapped.roll, config_.geometry, "pose: roll (sensor + base)");
+      !problem.empty())
+    throw std::invalid_argument(problem);
   const int threads = config_.num_threads > 0 ? config_.num_threads : detail::defaultThreads();
   const bool despeckle = config_.speckle_jump > 0.0;
   out.speckles = despeckle ? detail::removeSpeckles(input, config_.speckle_jump, work_->despeckled, threads) : 0;

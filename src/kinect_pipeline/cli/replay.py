@@ -48,7 +48,7 @@ def add_bag_topics(p: argparse.ArgumentParser) -> None:
         choices=["auto", "always", "never"],
         default="auto",
         help="rectify the depth images by their camera_info's distortion: auto (unless the depth topic's name holds "
-        "'rect'), true or false (default: auto, as the node)",
+        "'rect'), always or never (default: auto, as the node)",
     )
 
 
