@@ -19,6 +19,9 @@
 
 namespace kp_test
 {
+/** @return the operator new calls of this process so far (counted in test/core/main.cpp). */
+long newCalls();
+
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 struct V3

@@ -144,6 +144,6 @@ struct Config
  * @param what the roll's name in the message ("Config.sensor_roll", "pose: roll")
  * @return "" where it holds, else "<what> = <roll> rad with geometry 'thesis': expected ..."
  */
-std::string rollProblem(double roll, Geometry geometry, const std::string& what);
+std::string rollProblem(double roll, Geometry geometry, const char* what);
 
 }  // namespace kinect_pipeline

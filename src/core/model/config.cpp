@@ -177,7 +177,7 @@ std::vector<std::string> Config::problems() const
   return out;
 }
 
-std::string rollProblem(double roll, Geometry geometry, const std::string& what)
+std::string rollProblem(double roll, Geometry geometry, const char* what)
 {
   if (geometry != Geometry::kThesis || std::fabs(roll) <= kPi / 2)
     return "";
