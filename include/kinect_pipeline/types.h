@@ -40,7 +40,8 @@ struct PoseCorrection
  */
 struct ReferencePaths
 {
-  bool labels = false;    ///< every row labelled pixel by pixel by the rule (no labelling by value thresholds)
+  bool labels = false;    ///< every row labelled pixel by pixel by the rule (no labelling by value thresholds, a
+                          ///< floor profile's offsets looked up pixel by pixel, not by runs of one lift step)
   bool binning = false;   ///< every row binned by its pixel centres' bearings (no binning from the bins' borders)
   bool opening = false;   ///< cv::morphologyEx for every opening (no row kernels, no streamed 3x3 opening)
   bool portable = false;  ///< the plain loops instead of the SIMD kernels written with Highway (the labelling by

@@ -139,8 +139,9 @@ TEST(ValueLabelling, GivesTheRulesLabelsWhereverItTakesARow)
   }
 }
 
-// The per-pixel labeller's floor offsets under a floor profile (liftRow: steps, then a gather) are the rule's own,
-// PlaneRule::floorAt, bit for bit: rows of every slope (roll either way), rises from below the table to above 0.
+// The per-pixel labeller's floor offsets under a floor profile (liftRow: steps, then a gather; liftRowByRuns: runs of
+// one step, bisected) are the rule's own, PlaneRule::floorAt, bit for bit: rows of every slope (roll either way),
+// rises from below the table to above 0. The runs decline a row of 16 steps or more (nothing written), take the others.
 TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
 {
   std::vector<float> table(256);
@@ -148,15 +149,26 @@ TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
     table[i] = 0.001f * static_cast<float>((i * 37) % 41) - 0.02f;
   PlaneRule rule{0.001f, 1.1f, 1.0f, FloorLift{table.data(), -0.9f, 256 / 0.9f, 255}};
   const int w = 640;
-  std::vector<float> col(w), fh(w);
+  std::vector<float> col(w), fh(w), runs(w);
   std::vector<std::int32_t> steps(w);
-  for (const float slope : {-3e-4f, -1e-5f, 0.0f, 2e-5f, 4e-4f})
-    for (const float rise_row : {-1.2f, -0.6f, -0.05f, 0.0f, 0.3f})
+  int taken = 0, declined = 0;
+  for (const float slope : {-3e-4f, -7e-5f, -1e-5f, -1e-7f, 0.0f, 2e-5f, 5e-5f, 8e-5f, 4e-4f})
+    for (const float rise_row : {-1.2f, -0.9f, -0.6f, -0.3001f, -0.05f, 0.0f, 0.3f})
     {
       for (int u = 0; u < w; ++u)
         col[u] = slope * static_cast<float>(u - w / 2);
       liftRow(col.data(), rise_row, rule, w, steps.data(), fh.data());
+      std::fill(runs.begin(), runs.end(), -7.0f);
+      const bool by_runs = liftRowByRuns(col.data(), rise_row, rule, w, runs.data());
+      (by_runs ? taken : declined)++;
+      const int crossed = std::abs(rule.lift.step(col[w - 1] + rise_row) - rule.lift.step(col[0] + rise_row));
+      EXPECT_EQ(by_runs, crossed < 16) << "slope " << slope << ", rise_row " << rise_row;
       for (int u = 0; u < w; ++u)
+      {
         ASSERT_EQ(fh[u], rule.floorAt(col[u] + rise_row)) << "slope " << slope << ", rise_row " << rise_row << ", u " << u;
+        ASSERT_EQ(runs[u], by_runs ? fh[u] : -7.0f) << "slope " << slope << ", rise_row " << rise_row << ", u " << u;
+      }
     }
+  EXPECT_GT(taken, 20);
+  EXPECT_GT(declined, 5);
 }

@@ -86,6 +86,8 @@ public:
   float floorAt(float rise) const { return lift().floorAt(floor_offset_, rise); }
   /** @return whether every column term is the same (no roll): each row has one rise, one floor offset. */
   bool oneRisePerRow() const { return one_rise_per_row_; }
+  /** @return whether the column terms never decrease or never increase in u (so is each row's rise). */
+  bool monotoneColumns() const { return monotone_columns_; }
 
   /** @return predicted floor depth at pixel (u, r) [m] (plane and profile), +Inf where the ray never meets it. */
   double floorDepth(int u, int r) const;
@@ -103,6 +105,7 @@ private:
   float lift_lo_ = 0.0f, lift_inv_step_ = 0.0f;
   float floor_offset_ = 0.0f, ceiling_offset_ = 0.0f;
   bool one_rise_per_row_ = true;
+  bool monotone_columns_ = true;
   bool valid_ = false;
   Camera camera_;
   Geometry geometry_ = Geometry::kExact;

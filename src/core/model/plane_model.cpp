@@ -52,6 +52,7 @@ bool PlaneModel::update(const Camera& camera, const Config& config, double heigh
     ceiling_offset_ = static_cast<float>(ceiling_);
   }
   one_rise_per_row_ = std::adjacent_find(col_.begin(), col_.end(), std::not_equal_to<float>()) == col_.end();
+  monotone_columns_ = std::is_sorted(col_.begin(), col_.end()) || std::is_sorted(col_.rbegin(), col_.rend());
   buildLift();
   return true;
 }

@@ -39,6 +39,15 @@ RowCounts classifyRow(const T* src, const T* in, const float* t, const float* fh
 void liftRow(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh);
 
 /**
+ * liftRow()'s offsets, the same bits, as runs of one lift step each, for a column term monotone in u
+ * (PlaneModel::monotoneColumns()): then so are the steps (fl(col[u] + rise_row), its distance from the table's
+ * lowest rise, the product by the steps per rise, the clamps and the conversion are each non-decreasing), and each
+ * step's pixels are one run, whose end is found by bisection. A row of a small roll crosses one or two steps.
+ * @return false (nothing written) where the row crosses 16 steps or more: liftRow() is faster there
+ */
+bool liftRowByRuns(const float* col, float rise_row, const PlaneRule& rule, int w, float* fh);
+
+/**
  * The rescue (PlaneRule::rescued) of the pixels of row r flagged in cand, a superset of those it relabels; updates
  * labels, cleaned depth and the counts c. @param in the raw row (unmapped), @param src the opened row
  */

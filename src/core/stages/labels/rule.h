@@ -139,6 +139,8 @@ struct RuleTerms
   const float* row;   ///< PlaneModel::rowTerm()
   const ThresholdLut* lut;
   bool one_rise_per_row = false;  ///< PlaneModel::oneRisePerRow(): a row has one rise and one floor offset
+  /// PlaneModel::monotoneColumns() and not ReferencePaths::labels: a floor profile's offsets by runs (liftRowByRuns())
+  bool lift_by_runs = false;
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
