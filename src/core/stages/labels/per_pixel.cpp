@@ -211,24 +211,38 @@ void rescueRow(const RuleTerms& f, int r, const std::uint8_t* cand, const T* in,
       rescuePixel<T>(u, in, src, *f.lut, f.col, rise_row, f.rule, lab, dst, c);
 }
 
+namespace
+{
+// Whether every pixel of row r has one floor offset under a floor profile, @p fh: a row of one rise, or (lift by runs)
+// one whose two ends read one step of the lift, as all its pixels then do (liftRowByRuns()). The offset is the one
+// liftRow() would give each pixel (floor_h plus the step's lift), so the row is labelled as without a profile.
+bool oneFloorOffset(const RuleTerms& f, int r, int w, float& fh)
+{
+  const float rise = f.col[0] + f.row[r];
+  if (!f.one_rise_per_row && !(f.lift_by_runs && f.rule.lift.step(rise) == f.rule.lift.step(f.col[w - 1] + f.row[r])))
+    return false;
+  fh = f.rule.floorAt(rise);
+  return true;
+}
+}  // namespace
+
 template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
   pixelKernels().types.of<T>().threshold(src, *f.lut, f.rule.scale, w, t);
+  PlaneRule rule = f.rule;
   RowCounts c;
-  if (f.rule.lift.table)
+  if (rule.lift.table && !oneFloorOffset(f, r, w, rule.floor_h))
   {
-    if (f.one_rise_per_row)
-      std::fill(fh, fh + w, f.rule.floorAt(f.col[0] + f.row[r]));
-    else if (!(f.lift_by_runs && liftRowByRuns(f.col, f.row[r], f.rule, w, fh)))
+    if (!(f.lift_by_runs && liftRowByRuns(f.col, f.row[r], f.rule, w, fh)))
       liftRow(f.col, f.row[r], f.rule, w, steps, fh);
-    c = in ? classifyRow<T, true, true>(src, in, t, fh, f.col, f.row[r], f.rule, w, lab, dst, cand)
-           : classifyRow<T, false, true>(src, nullptr, t, fh, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+    c = in ? classifyRow<T, true, true>(src, in, t, fh, f.col, f.row[r], rule, w, lab, dst, cand)
+           : classifyRow<T, false, true>(src, nullptr, t, fh, f.col, f.row[r], rule, w, lab, dst, nullptr);
   }
   else
-    c = in ? classifyRow<T, true, false>(src, in, t, nullptr, f.col, f.row[r], f.rule, w, lab, dst, cand)
-           : classifyRow<T, false, false>(src, nullptr, t, nullptr, f.col, f.row[r], f.rule, w, lab, dst, nullptr);
+    c = in ? classifyRow<T, true, false>(src, in, t, nullptr, f.col, f.row[r], rule, w, lab, dst, cand)
+           : classifyRow<T, false, false>(src, nullptr, t, nullptr, f.col, f.row[r], rule, w, lab, dst, nullptr);
   if (c.candidates > 0)
     rescueRow<T>(f, r, cand, in, src, w, lab, dst, c);
   return c;
