@@ -47,6 +47,36 @@ namespace HWY_NAMESPACE
 {
 namespace
 {
+// A labelled row's counts (cand nullptr: no candidates), in blocks whose byte sums cannot wrap, of 192 pixels (whole
+// vectors of every width: no scalar tail in a row of 512). The compiler vectorises the byte sums; counted in the
+// labelling's loop, five 32-bit sums took its registers (16-bit rolled frames 5-9 % slower, 8-bit 9-16 %).
+RowCounts countRow(const std::uint8_t* __restrict lab, const std::uint8_t* __restrict cand, int w)
+{
+  RowCounts c;
+  for (int u0 = 0; u0 < w; u0 += 192)
+  {
+    const int n = std::min(192, w - u0);
+    std::uint8_t inv = 0, floor = 0, ceil = 0, below = 0, flags = 0;
+    for (int u = u0; u < u0 + n; ++u)
+    {
+      inv += lab[u] == kInvalid;
+      floor += lab[u] == kFloor;
+      ceil += lab[u] == kAboveCeiling;
+      below += lab[u] == kBelowFloor;
+    }
+    if (cand)
+      for (int u = u0; u < u0 + n; ++u)
+        flags += cand[u];
+    c.invalid += inv;
+    c.floor += floor;
+    c.ceiling += ceil;
+    c.kept -= inv + floor + ceil + below;
+    c.candidates += flags;
+  }
+  c.kept += w;
+  return c;
+}
+
 // Branch-free, with restrict pointers, so that the compiler vectorises it. kLift: the floor offsets of a floor profile
 // (liftRow()).
 template <typename T, bool kRescue, bool kLift>
@@ -57,7 +87,6 @@ RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const flo
 {
   using Tr = DepthTraits<T>;
   const T removed = Tr::removed();
-  int n_kept = 0, n_invalid = 0, n_floor = 0, n_ceiling = 0, n_cand = 0;
   for (int u = 0; u < w; ++u)
   {
     const T v = src[u];
@@ -73,14 +102,9 @@ RowCounts classifyRow(const T* __restrict src, const T* __restrict in, const flo
       const T raw = in[u];
       const bool flag = (keep | below) & !Tr::isNoReturn(raw) & (rule.moved(raw, v) > PlaneRule::moveBand(t[u]));
       cand[u] = flag;
-      n_cand += flag;
     }
-    n_kept += keep;
-    n_invalid += l == kInvalid;
-    n_floor += l == kFloor;
-    n_ceiling += l == kAboveCeiling;
   }
-  return {n_kept, n_invalid, n_floor, n_ceiling, n_cand};
+  return countRow(lab, kRescue ? cand : nullptr, w);
 }
 
 // The lift table's step of each pixel of a row under a floor profile (vectorised: no gather).
