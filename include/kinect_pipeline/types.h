@@ -45,7 +45,8 @@ struct ReferencePaths
   bool binning = false;   ///< every row binned by its pixel centres' bearings (no binning from the bins' borders)
   bool opening = false;   ///< cv::morphologyEx for every opening (no row kernels, no streamed 3x3 opening)
   bool portable = false;  ///< the plain loops instead of the SIMD kernels written with Highway (the labelling by
-                          ///< value's row split and the scan's pull; the same bits: kinect_pipeline/simd.h)
+                          ///< value's row split, the pixels' thresholds by a gather and the scan's pull; the same
+                          ///< bits: kinect_pipeline/simd.h)
   /** @return all four on: the reference path. */
   static ReferencePaths all() { return {true, true, true, true}; }
 };

@@ -394,7 +394,7 @@ void Pipeline::run(const cv::Mat& depth, FrameResult& out, int threads)
   // Stage 2: the rule's terms at this pose, the labelling, the binning of the projection (chosen here, once).
   const RuleTerms terms{{scale, planes_.floorOffset(), planes_.ceilingOffset(), planes_.lift()},
                         planes_.colTerm().data(), planes_.rowTerm().data(), &lut_, planes_.oneRisePerRow(),
-                        planes_.monotoneColumns() && !paths_.labels};
+                        planes_.monotoneColumns() && !paths_.labels, !paths_.portable};
   const RowLabeller<T> labeller(terms, work.value_terms, paths_);
   const RowBinner binner(projector_, camera_.width, paths_);
   const RowStages<T> stages{opening,
