@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -16,6 +17,7 @@
 #include "stages/labels/by_value.h"
 #include "stages/labels/per_pixel.h"
 #include "stages/labels/rule.h"
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 using namespace kinect_pipeline::detail;
@@ -171,4 +173,67 @@ TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
     }
   EXPECT_GT(taken, 20);
   EXPECT_GT(declined, 5);
+}
+
+namespace
+{
+// A row's thresholds by the gather kernel and by the plain loop, against thresholdOf pixel by pixel, bit for bit.
+template <typename T>
+int expectGatherIsPlainLoop(const std::vector<T>& row, const ThresholdLut& lut, float scale, const std::string& where)
+{
+  const int w = static_cast<int>(row.size());
+  std::vector<float> gathered(w, -1.0f), plain(w, -2.0f);
+  rowThresholds(row.data(), lut, scale, w, gathered.data(), true);
+  rowThresholds(row.data(), lut, scale, w, plain.data(), false);
+  int bad = 0;
+  for (int u = 0; u < w; ++u)
+  {
+    const float want = thresholdOf(lut, row[u], scale);
+    if ((std::memcmp(&gathered[u], &want, 4) != 0 || std::memcmp(&plain[u], &want, 4) != 0) && ++bad <= 3)
+      ADD_FAILURE() << where << ": pixel " << u << " value " << double(row[u]) << ": gather " << gathered[u]
+                    << ", plain " << plain[u] << ", thresholdOf " << want;
+  }
+  return bad;
+}
+}  // namespace
+
+// The pixels' thresholds by the CPU's gather (rowThresholds, gather on: 8 float lanes or more) are the plain loop's
+// on every SIMD target this CPU has: every 8-bit value, every 16-bit one, and float depths at and around every cell
+// border, beyond the table, negative, 0, NaN and the infinities (forDepth's clamps), in rows of whole vectors and not.
+TEST(Thresholds, TheGatherGivesThePlainLoopsBits)
+{
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<std::uint8_t> v8(256);
+  for (int v = 0; v < 256; ++v)
+    v8[v] = static_cast<std::uint8_t>(v);
+  std::vector<std::uint16_t> v16(65536);
+  for (int v = 0; v < 65536; ++v)
+    v16[v] = static_cast<std::uint16_t>(v);
+  std::vector<float> vf = {std::numeric_limits<float>::quiet_NaN(), -inf, inf, -1.0f, -0.0f, 0.0f, 1e-30f, 1e30f,
+                           std::numeric_limits<float>::max(), std::numeric_limits<float>::denorm_min()};
+  for (int cell = 0; cell <= 1300; ++cell)
+  {
+    const float border = static_cast<float>(cell) / ThresholdLut::kCellsPerMetre;
+    vf.insert(vf.end(), {std::nextafter(border, -inf), border, std::nextafter(border, inf), border + 0.005f});
+  }
+  int bad = 0;
+  const auto ran = kp_test::forEachSimdTarget([&](const std::string& target) {
+    for (const double max_depth : {4.5, 12.0})
+    {
+      ThresholdLut l8, l16, lf;
+      l8.build(defaultThresholdCurve(), Encoding::kMono8, max_depth);
+      l16.build(defaultThresholdCurve(), Encoding::kMono16, max_depth);
+      lf.build(defaultThresholdCurve(), Encoding::kFloat32, max_depth);
+      const std::string where = target + ", max_depth " + std::to_string(max_depth);
+      for (const std::size_t w : {std::size_t{5}, std::size_t{100}, std::size_t{512}})
+        bad += expectGatherIsPlainLoop(std::vector<std::uint8_t>(v8.begin(), v8.begin() + std::min(w, v8.size())),
+                                       l8, static_cast<float>(max_depth / 255.0), where + ", 8-bit");
+      bad += expectGatherIsPlainLoop(v8, l8, static_cast<float>(max_depth / 255.0), where + ", 8-bit");
+      bad += expectGatherIsPlainLoop(v16, l16, 0.001f, where + ", 16-bit");
+      bad += expectGatherIsPlainLoop(vf, lf, 1.0f, where + ", float");
+      bad += expectGatherIsPlainLoop(std::vector<float>(vf.begin(), vf.begin() + 13), lf, 1.0f, where + ", float");
+    }
+  });
+  EXPECT_EQ(bad, 0);
+  EXPECT_GE(ran.size(), 2u);
 }

@@ -68,8 +68,10 @@ public:
   {
     return encoding_ == Encoding::kMono8 ? table_.data() : (encoding_ == Encoding::kMono16 ? by_mm_.data() : nullptr);
   }
-  /** @return the raw table (for tests). */
+  /** @return the raw table (for tests and the thresholds' gather). */
   const std::vector<float>& table() const { return table_; }
+  /** @return the last cell forDepth() reads (as a float: its clamp). */
+  float lastCell() const { return last_; }
 
 private:
   std::vector<float> table_;

@@ -128,25 +128,41 @@ void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale,
     t[u] = thresholdOf(lut, src[u], scale);
 }
 
-// thresholdRow of the integer encodings by the CPU's gather instruction, with 8 float lanes or more (SSE4 and NEON
-// have none: there, and for float pixels, the plain loop). GCC's own vectors of the plain loop load each lane on its
-// own (AVX-512: 16-bit rolled frames 5-9 % slower than unvectorised).
+// thresholdRow by the CPU's gather, with 8 float lanes or more (SSE4 and NEON have none: the plain loop). Float
+// pixels take forDepth()'s cell in vectors, with its clamps as selects (NaN to the last cell, as there). GCC's own
+// vectors of the plain loop load each lane on its own (AVX-512: 16-bit rolled frames 5-9 % slower than not
+// vectorising it; float frames spent a quarter of their time there).
 template <typename T>
 void thresholdGather(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
 {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const hn::ScalableTag<float> df;
+  const hn::Rebind<std::int32_t, decltype(df)> di;
+  const int n = static_cast<int>(hn::Lanes(df));
   int u = 0;
-  if constexpr (!std::is_same_v<T, float>)
+  if (n >= 8)
   {
-    namespace hn = hwy::HWY_NAMESPACE;
-    const hn::ScalableTag<float> df;
-    const hn::Rebind<std::int32_t, decltype(df)> di;
-    const hn::Rebind<std::uint32_t, decltype(df)> du;
-    const hn::Rebind<T, decltype(df)> dt;
-    const float* table = lut.valueTable();
-    const int n = static_cast<int>(hn::Lanes(df));
-    if (n >= 8)
+    if constexpr (std::is_same_v<T, float>)
+    {
+      const auto s = hn::Set(df, scale), cells = hn::Set(df, ThresholdLut::kCellsPerMetre);
+      const auto top = hn::Set(df, lut.lastCell()), zero = hn::Zero(df);
+      const float* table = lut.table().data();
+      for (; u + n <= w; u += n)
+      {
+        auto i = hn::Mul(hn::Mul(hn::LoadU(df, src + u), s), cells);  // forDepth(v * scale)
+        i = hn::IfThenElse(hn::Lt(i, top), i, top);
+        i = hn::IfThenElse(hn::Gt(i, zero), i, zero);
+        hn::StoreU(hn::GatherIndex(df, table, hn::ConvertTo(di, i)), df, t + u);
+      }
+    }
+    else
+    {
+      const hn::Rebind<std::uint32_t, decltype(df)> du;
+      const hn::Rebind<T, decltype(df)> dt;
+      const float* table = lut.valueTable();
       for (; u + n <= w; u += n)
         hn::StoreU(hn::GatherIndex(df, table, hn::BitCast(di, hn::PromoteTo(du, hn::LoadU(dt, src + u)))), df, t + u);
+    }
   }
   thresholdRow(src + u, lut, scale, w - u, t + u);
 }
@@ -257,6 +273,12 @@ void rescueRow(const RuleTerms& f, int r, const std::uint8_t* cand, const T* in,
       rescuePixel<T>(u, in, src, *f.lut, f.col, rise_row, f.rule, lab, dst, c);
 }
 
+template <typename T>
+void rowThresholds(const T* src, const ThresholdLut& lut, float scale, int w, float* t, bool gather)
+{
+  pixelKernels().types.of<T>().threshold[gather](src, lut, scale, w, t);
+}
+
 namespace
 {
 // Whether every pixel of row r has one floor offset under a floor profile, @p fh: a row of one rise, or (lift by runs)
@@ -276,7 +298,7 @@ template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
-  pixelKernels().types.of<T>().threshold[f.gather](src, *f.lut, f.rule.scale, w, t);
+  rowThresholds(src, *f.lut, f.rule.scale, w, t, f.gather);
   PlaneRule rule = f.rule;
   RowCounts c;
   if (rule.lift.table && !oneFloorOffset(f, r, w, rule.floor_h))
@@ -311,6 +333,7 @@ RowCounts classifyRow(const T* src, const T* in, const float* t, const float* fh
   KP_CLASSIFY(T, false, true)                                                                                        \
   template void rescueRow<T>(const RuleTerms&, int, const std::uint8_t*, const T*, const T*, int, std::uint8_t*, T*, \
                              RowCounts&);                                                                           \
+  template void rowThresholds<T>(const T*, const ThresholdLut&, float, int, float*, bool);                           \
   template RowCounts labelRowByPixel<T>(const RuleTerms&, int, const T*, const T*, int, std::uint8_t*, T*, float*,  \
                                         float*, std::int32_t*, std::uint8_t*);
 KP_INSTANTIATE(std::uint8_t)

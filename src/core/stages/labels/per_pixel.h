@@ -22,6 +22,13 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand);
 
 /**
+ * The threshold t[u] of each pixel of a row (thresholdOf): gather, by the CPU's gather instruction where the SIMD
+ * target has one (8 float lanes or more), else (and !gather: the reference) the plain loop. The same bits.
+ */
+template <typename T>
+void rowThresholds(const T* src, const ThresholdLut& lut, float scale, int w, float* t, bool gather);
+
+/**
  * The labels of a row's pixels by the rule (PlaneRule::label), each with its threshold t[u] and rise col[u] +
  * rise_row, and (kRescue) in cand the flags of the pixels the rescue may relabel: kept or below the floor, with a
  * raw value in[u] (unmapped) that the opening moved nearer by more than moveBand(t[u]), a superset of those it
