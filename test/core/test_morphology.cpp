@@ -2,6 +2,7 @@
 
 #include <cfloat>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <type_traits>
 #include <vector>
@@ -113,9 +114,14 @@ void checkErodeMapped(int type, int rows, int cols)
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c)
     {
-      const unsigned k = rng() % 6;  // unknown values, and the no-return value itself
-      if constexpr (std::is_same_v<T, float>)
-        img.at<float>(r, c) = k == 0 ? NAN : (k == 1 ? 0.0f : (k == 2 ? -INFINITY : img.at<float>(r, c)));
+      const unsigned k = rng() % 8;  // unknown values, and the no-return value itself
+      if constexpr (std::is_same_v<T, float>)  // floats: also -0 (unknown) and the smallest depth there is (known)
+        img.at<float>(r, c) = k == 0 ? NAN
+                              : k == 1 ? 0.0f
+                              : k == 2 ? -INFINITY
+                              : k == 3 ? -0.0f
+                              : k == 4 ? std::numeric_limits<float>::denorm_min()
+                                       : img.at<float>(r, c);
       else
         img.at<T>(r, c) = k == 0 ? T(0) : (k == 1 ? T(1) : (k == 2 ? DepthTraits<T>::kNoReturn : img.at<T>(r, c)));
     }

@@ -71,7 +71,7 @@ struct MapOrder
   static T back(T k) { return k; }
 };
 template <typename T>
-struct MapOrder<T, true>
+struct MapOrder<T, true>  // integers
 {
   static constexpr T kSmallest = DepthTraits<T>::kMinValid;
   static T key(T v) { return static_cast<T>(v - kSmallest); }
@@ -80,6 +80,14 @@ struct MapOrder<T, true>
     return k > static_cast<T>(DepthTraits<T>::kNoReturn - kSmallest) ? DepthTraits<T>::kNoReturn
                                                                      : static_cast<T>(k + kSmallest);
   }
+};
+
+// Floats have no cheap order key: the map itself (unknown values, NaN among them, become +Inf, above every known one).
+template <>
+struct MapOrder<float, true>
+{
+  static float key(float v) { return DepthTraits<float>::map(v); }
+  static float back(float k) { return k; }
 };
 
 // The 3x3 case of rectRow / erodeMappedRow in one pass over the three source rows (a, b, c; repeated at the
@@ -114,12 +122,14 @@ void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c
   dst[w - 1] = O::back(pick<kMin>(col(w - 2), col(w - 1)));
 }
 
-// The 3x3 case of 8- and 16-bit rows with Highway ops: the column minima (maxima) of the three rows once per
-// pixel, in registers, and their neighbours by shifting a vector by one lane across the previous or next one
-// instead of loading six more rows' worth at offsets of one pixel. Min, max and the order key are exact: the same
-// bits as box3Row. The row ends repeat their pixel (min(x, x) = x), as box3Row's ends leave it out.
+// The 3x3 case with Highway ops: the column minima (maxima) of the three rows once per pixel, in registers, and
+// their neighbours by shifting a vector by one lane across the previous or next one instead of loading six more
+// rows' worth at offsets of one pixel. Min and max (floats: in pick's operand order on x86, pick's compare and
+// select elsewhere, the same bits for NaN) and the order key are exact: the same bits as box3Row. The row ends repeat their pixel (pick(x, x) = x), as box3Row's
+// ends leave it out.
 // Highway 1.0 shifts across whole vectors only for 128-bit targets (CombineShiftRightBytes); AVX2 and AVX-512 take
-// two intrinsics each, and other targets (SVE, one-lane scalar) box3Row.
+// two intrinsics each (on integer lanes: floats shift as their bits), and other targets (SVE, one-lane scalar)
+// box3Row.
 #undef KP_BOX3_VECTORS  // this file is compiled once per target
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_NEON || \
     HWY_TARGET == HWY_EMU128
@@ -149,21 +159,63 @@ HWY_INLINE V right1(V cur, V next)  // [cur's lanes but the first, next's first 
 #endif
 }
 
+template <typename T, class V>
+HWY_INLINE V leftOf(V cur, V prev)
+{
+  if constexpr (std::is_floating_point_v<T>)
+  {
+    const hn::RebindToUnsigned<hn::DFromV<V>> du;
+    return hn::BitCast(hn::DFromV<V>(), left1<std::uint32_t>(hn::BitCast(du, cur), hn::BitCast(du, prev)));
+  }
+  else
+    return left1<T>(cur, prev);
+}
+template <typename T, class V>
+HWY_INLINE V rightOf(V cur, V next)
+{
+  if constexpr (std::is_floating_point_v<T>)
+  {
+    const hn::RebindToUnsigned<hn::DFromV<V>> du;
+    return hn::BitCast(hn::DFromV<V>(), right1<std::uint32_t>(hn::BitCast(du, cur), hn::BitCast(du, next)));
+  }
+  else
+    return right1<T>(cur, next);
+}
+
 template <typename T, bool kMin, bool kMap>
 void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
 {
   using O = MapOrder<T, kMap>;
+  constexpr bool kFloat = std::is_floating_point_v<T>;
   const hn::ScalableTag<T> d;
   const int L = static_cast<int>(hn::Lanes(d));
-  const auto pickV = [](auto x, auto y) { return kMin ? hn::Min(x, y) : hn::Max(x, y); };
-  constexpr T kSmallest = kMap ? MapOrder<T, true>::kSmallest : 0;  // MapOrder's key: v - kSmallest (wrapping)
-  const auto key = [&](const T* p) { return hn::Sub(hn::LoadU(d, p), hn::Set(d, kSmallest)); };
-  const auto back = [&](auto k) {  // MapOrder::back: keys above no-return - smallest were unknown values
+  const auto pickV = [](auto x, auto y) {  // pick(x, y)
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_SSE4
+    // x86's min(y, x) is y < x ? y : x (max likewise), NaN included: pick itself, one instruction.
+    return kMin ? hn::Min(y, x) : hn::Max(y, x);
+#else
+    if constexpr (kFloat)  // NEON's min and max give NaN where either is: pick's compare and select
+      return kMin ? hn::IfThenElse(hn::Lt(y, x), y, x) : hn::IfThenElse(hn::Gt(y, x), y, x);
+    else
+      return kMin ? hn::Min(x, y) : hn::Max(x, y);
+#endif
+  };
+  const auto key = [&](const T* p) {  // MapOrder::key
+    const auto v = hn::LoadU(d, p);
     if constexpr (!kMap)
+      return v;
+    else if constexpr (kFloat)  // DepthTraits<float>::map
+      return hn::IfThenElse(hn::And(hn::Gt(v, hn::Zero(d)), hn::Lt(v, hn::Set(d, DepthTraits<float>::kNoReturn))), v,
+                            hn::Set(d, DepthTraits<float>::kNoReturn));
+    else  // v - kSmallest (wrapping)
+      return hn::Sub(v, hn::Set(d, MapOrder<T, true>::kSmallest));
+  };
+  const auto back = [&](auto k) {  // MapOrder::back: integer keys above no-return - smallest were unknown values
+    if constexpr (!kMap || kFloat)
       return k;
     else
     {
-      constexpr T none = DepthTraits<T>::kNoReturn;
+      constexpr T kSmallest = MapOrder<T, true>::kSmallest, none = DepthTraits<T>::kNoReturn;
       const auto unknown = hn::Gt(k, hn::Set(d, static_cast<T>(none - kSmallest)));
       return hn::IfThenElse(unknown, hn::Set(d, none), hn::Add(k, hn::Set(d, kSmallest)));
     }
@@ -179,7 +231,7 @@ void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
   {
     // The next whole vector, or (the last one) the pixel after this vector or the row's last pixel repeated.
     const auto next = u + 2 * L <= w ? column(u + L) : splatColumn(std::min(u + L, w - 1));
-    hn::StoreU(back(pickV(pickV(left1<T>(cur, prev), cur), right1<T>(cur, next))), d, dst + u);
+    hn::StoreU(back(pickV(pickV(leftOf<T>(cur, prev), cur), rightOf<T>(cur, next))), d, dst + u);
     prev = cur;
     cur = next;
   }
@@ -187,19 +239,30 @@ void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
   {
     const int u = w - L;  // >= 1
     const auto x = column(u);
-    hn::StoreU(back(pickV(pickV(column(u - 1), x), right1<T>(x, splatColumn(w - 1)))), d, dst + u);
+    hn::StoreU(back(pickV(pickV(column(u - 1), x), rightOf<T>(x, splatColumn(w - 1)))), d, dst + u);
   }
 }
 #endif
 
-// box3Row from the three rows given (w >= 3): box3Vectors for 8- and 16-bit rows of a vector or more.
+// Whether box3Rows takes box3Vectors for a row of w pixels: a vector or more, on the targets that have them.
+template <typename T>
+bool box3InVectors(int w)
+{
+#if defined(KP_BOX3_VECTORS)
+  return w >= static_cast<int>(hn::Lanes(hn::ScalableTag<T>()));
+#else
+  (void)w;
+  return false;
+#endif
+}
+
+// box3Row from the three rows given (w >= 3): box3Vectors for rows of a vector or more.
 template <typename T, bool kMin, bool kMap>
 void box3Rows(const T* a, const T* b, const T* c, int w, T* dst)
 {
 #if defined(KP_BOX3_VECTORS)
-  if constexpr (!std::is_floating_point_v<T>)
-    if (w >= static_cast<int>(hn::Lanes(hn::ScalableTag<T>())))
-      return box3Vectors<T, kMin, kMap>(a, b, c, w, dst);
+  if (box3InVectors<T>(w))
+    return box3Vectors<T, kMin, kMap>(a, b, c, w, dst);
 #endif
   box3Row<T, kMin, kMap>(a, b, c, w, dst);
 }
@@ -253,10 +316,9 @@ void erodeMappedRow(const cv::Mat& src, int r, int rad, T* tmp, T* dst)
 {
   using Tr = DepthTraits<T>;
   const int w = src.cols;
-  // Floats: mapping each of the nine loads costs more than the separable passes' wait (no cheap order key).
-  if constexpr (!std::is_floating_point_v<T>)
-    if (rad == 1 && w >= 3)
-      return box3<T, true, true>(src, r, dst);
+  // Floats in vectors only: mapping each of box3Row's nine loads costs more than the separable passes' wait.
+  if (rad == 1 && w >= 3 && (!std::is_floating_point_v<T> || box3InVectors<T>(w)))
+    return box3<T, true, true>(src, r, dst);
   const int lo = std::max(0, r - rad), hi = std::min(src.rows - 1, r + rad);
   const T* first = src.ptr<T>(lo);
   for (int u = 0; u < w; ++u)
