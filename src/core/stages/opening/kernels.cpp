@@ -125,8 +125,8 @@ void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c
 // The 3x3 case with Highway ops: the column minima (maxima) of the three rows once per pixel, in registers, and
 // their neighbours by shifting a vector by one lane across the previous or next one instead of loading six more
 // rows' worth at offsets of one pixel. Min and max (floats: in pick's operand order on x86, pick's compare and
-// select elsewhere, the same bits for NaN) and the order key are exact: the same bits as box3Row. The row ends repeat their pixel (pick(x, x) = x), as box3Row's
-// ends leave it out.
+// select elsewhere, the same bits for NaN) and the order key are exact: the same bits as box3Row. The row ends
+// repeat their pixel (pick(x, x) = x), as box3Row's ends leave it out.
 // Highway 1.0 shifts across whole vectors only for 128-bit targets (CombineShiftRightBytes); AVX2 and AVX-512 take
 // two intrinsics each (on integer lanes: floats shift as their bits), and other targets (SVE, one-lane scalar)
 // box3Row.
