@@ -149,8 +149,11 @@ def test_local_cluster_mixed_inputs_a_damaged_bag_and_a_rerun_that_does_nothing(
     assert (out / "fleet.json").read_bytes() == table
 
     os.utime(recs["ros1"], ns=(time.time_ns(), time.time_ns()))  # touched: done again, the rest skipped
-    once_more = cli(*args, "--workers", "1", "--quiet")
+    cpus = len(os.sched_getaffinity(0))
+    once_more = cli(*args, "--workers", str(cpus + 1), "--quiet")  # more workers than CPUs: warned, even when quiet
     assert "1 done now" in once_more.stdout and "5 up to date" in once_more.stdout
+    assert f"warning: --workers {cpus + 1} is more than the {cpus} CPU(s) this process may use" in once_more.stderr
+    assert "is more than the" not in r.stderr or cpus < 2  # 2 workers on 2 CPUs or more: no warning
 
 
 def test_a_task_in_this_process_skip_bad_measures_the_intact_part(recs: dict[str, Path]) -> None:

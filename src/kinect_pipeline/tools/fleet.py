@@ -745,7 +745,16 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
         return client, None
     import dask
 
-    n = workers or os.cpu_count() or 1
+    cpus = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    n = workers or cpus
+    if n > cpus:
+        import sys
+
+        print(
+            f"kinect-pipeline fleet: warning: --workers {n} is more than the {cpus} CPU(s) this process may use: the "
+            "workers share them (no faster, each with its own memory); a LocalCluster takes one per CPU by default",
+            file=sys.stderr,
+        )
     _core_first_on_path()
     try:
         # Dask's nannies start workers with MALLOC_TRIM_THRESHOLD_=65536, which turns off glibc's adaptive mmap
