@@ -159,27 +159,20 @@ HWY_INLINE V right1(V cur, V next)  // [cur's lanes but the first, next's first 
 #endif
 }
 
-template <typename T, class V>
-HWY_INLINE V leftOf(V cur, V prev)
+// left1 (kLeft: other is the previous vector) or right1 (the next) of lanes of T: floats shift as their bits.
+template <bool kLeft, typename T, class V>
+HWY_INLINE V shift1(V cur, V other)
 {
   if constexpr (std::is_floating_point_v<T>)
   {
-    const hn::RebindToUnsigned<hn::DFromV<V>> du;
-    return hn::BitCast(hn::DFromV<V>(), left1<std::uint32_t>(hn::BitCast(du, cur), hn::BitCast(du, prev)));
+    const hn::DFromV<V> d;
+    const hn::RebindToUnsigned<decltype(d)> du;
+    return hn::BitCast(d, shift1<kLeft, std::uint32_t>(hn::BitCast(du, cur), hn::BitCast(du, other)));
   }
+  else if constexpr (kLeft)
+    return left1<T>(cur, other);
   else
-    return left1<T>(cur, prev);
-}
-template <typename T, class V>
-HWY_INLINE V rightOf(V cur, V next)
-{
-  if constexpr (std::is_floating_point_v<T>)
-  {
-    const hn::RebindToUnsigned<hn::DFromV<V>> du;
-    return hn::BitCast(hn::DFromV<V>(), right1<std::uint32_t>(hn::BitCast(du, cur), hn::BitCast(du, next)));
-  }
-  else
-    return right1<T>(cur, next);
+    return right1<T>(cur, other);
 }
 
 template <typename T, bool kMin, bool kMap>
@@ -231,7 +224,7 @@ void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
   {
     // The next whole vector, or (the last one) the pixel after this vector or the row's last pixel repeated.
     const auto next = u + 2 * L <= w ? column(u + L) : splatColumn(std::min(u + L, w - 1));
-    hn::StoreU(back(pickV(pickV(leftOf<T>(cur, prev), cur), rightOf<T>(cur, next))), d, dst + u);
+    hn::StoreU(back(pickV(pickV(shift1<true, T>(cur, prev), cur), shift1<false, T>(cur, next))), d, dst + u);
     prev = cur;
     cur = next;
   }
@@ -239,7 +232,7 @@ void box3Vectors(const T* a, const T* b, const T* c, int w, T* dst)
   {
     const int u = w - L;  // >= 1
     const auto x = column(u);
-    hn::StoreU(back(pickV(pickV(column(u - 1), x), rightOf<T>(x, splatColumn(w - 1)))), d, dst + u);
+    hn::StoreU(back(pickV(pickV(column(u - 1), x), shift1<false, T>(x, splatColumn(w - 1)))), d, dst + u);
   }
 }
 #endif
