@@ -93,6 +93,11 @@ class RosGraph(Processes):
             left = self.leftovers()
             for pid in left:
                 os.kill(pid, signal.SIGKILL)
+            # Killed, a process lingers in /proc until the kernel has torn it down and its parent (init, for a node
+            # roslaunch left) has reaped it: polled under a deadline, so that what was left is gone on return.
+            deadline = time.monotonic() + 10
+            while left and set(left) & set(self.leftovers()) and time.monotonic() < deadline:
+                time.sleep(0.05)
             assert not left, f"processes left running after the test: {left}"
 
     def leftovers(self) -> dict[int, str]:
