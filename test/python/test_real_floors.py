@@ -254,3 +254,38 @@ def test_the_evidence_rule_can_be_turned_off() -> None:
     assert np.isfinite(on.cliff_ranges).sum() <= np.isfinite(off.cliff_ranges).sum()
     with pytest.raises(ValueError, match="cliff_min_drop"):
         kp.Config(cliff_min_drop=-0.01).validate()
+
+
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+def test_the_fast_paths_give_the_plain_paths_labels_on_real_frames(encoding: str) -> None:
+    """The shared RealSense frames at their mount's roll (10 deg: every row labelled pixel by pixel), a small roll
+    (a base's IMU: rows of one floor-profile step, and rows by runs of steps), level and upside down, with a floor
+    profile restored: the fast paths (the lift by runs, the thresholds' gather, the float opening's vectors, the
+    labelling by value) give the reference paths' labels and cleaned depth bit for bit, and the scan but for the few
+    beams a pixel within float rounding of a bin's border moves (the reference bins by the pixels' centres)."""
+    frames = real_realsense()[:3]
+    for roll in (RS_ROLL, 0.002, 0.0, math.pi):
+        cfg = kp.Config(
+            sensor_height=RS_HEIGHT, sensor_pitch=RS_PITCH, sensor_roll=roll, cliff_scan=True,
+            floor_profile_max=0.1, floor_learn_time=0.0,
+        )  # fmt: skip
+        fast, plain = kp.Pipeline(RS_CAM, cfg), kp.Pipeline(RS_CAM, cfg, reference_paths=True)
+        state = list(fast.floor_state)
+        bands = (len(state) - 8) // 2
+        state[7 : 7 + bands] = [(0.02 if k % 2 else -0.02) * (k + 1) for k in range(bands)]  # metres of lift
+        state[7 + bands : 7 + 2 * bands] = [1.0] * bands
+        fast.floor_state = plain.floor_state = tuple(state)
+        cfg.floor_profile_max = 0.0
+        none = kp.Pipeline(RS_CAM, cfg)
+        lifted = 0
+        for i, mm in enumerate(frames):
+            depth = mm if encoding == "16UC1" else np.where(mm > 0, mm / 1000.0, np.nan).astype(np.float32)
+            a = fast.process(depth, base_pitch=0.01 * i, stamp=i / 30)
+            b = plain.process(depth, base_pitch=0.01 * i, stamp=i / 30)
+            where = f"{encoding}, roll {roll}, frame {i}"
+            assert np.array_equal(a.labels, b.labels), where
+            assert np.asarray(a.depth).tobytes() == np.asarray(b.depth).tobytes(), where
+            x, y = (np.nan_to_num(r.ranges, nan=-1.0, posinf=1e9) for r in (a, b))
+            assert int(np.sum(~np.isclose(x, y, rtol=1e-5, atol=0.0))) <= 4, where  # 2 seen at most
+            lifted += int(np.sum(a.labels != none.process(depth, base_pitch=0.01 * i, stamp=i / 30).labels))
+        assert lifted > 1000, f"roll {roll}: the profile changed {lifted} labels: the lift would not be reached"
