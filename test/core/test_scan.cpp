@@ -1,9 +1,14 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <random>
+#include <vector>
 
 #include "kinect_pipeline/stages/scan.h"
+#include "test_util.h"
 
 using namespace kinect_pipeline;
 
@@ -263,4 +268,72 @@ TEST(ScanProjector, SpanPixelsDeclinesRowsThatLookStraightDown)
   cfg.projection = Projection::kColumn;
   p.configure(cam, cfg);
   EXPECT_EQ(p.spanPixels(0, 0, 511, lo.data(), hi.data(), first), -1);
+}
+
+// detail::pullNearest on every SIMD target against nearestOf's plain loop, bin by bin: plans of bins narrower and
+// wider than a pixel (pairs, single pixels, empty bins clipped at the span's ends, bins of many pixels), growing and
+// falling, of every length around the vector widths, over ranges with NaN and +Inf, with counts and without.
+TEST(ScanPull, EveryTargetGivesThePlainLoopsBins)
+{
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  int bins_checked = 0;
+  const auto ran = kp_test::forEachSimdTarget([&](const std::string& target) {
+    for (int trial = 0; trial < 400; ++trial)
+    {
+      const int n = 1 + trial % 70;
+      const float width = trial % 3 == 0 ? 0.4f : (trial % 3 == 1 ? 1.1f : 3.0f);  // pixels per bin (mean)
+      std::vector<float> g(n + 1);  // the borders' columns, growing
+      g[0] = 3.0f + 2.0f * unit(rng);
+      for (int j = 1; j <= n; ++j)
+        g[j] = g[j - 1] + width * (0.2f + 1.6f * unit(rng));
+      const int a = static_cast<int>(g[0]) + 1, b = static_cast<int>(g[n]) - 1;  // clipped: end bins may be empty
+      std::vector<std::int32_t> lo(n), hi(n);
+      for (int j = 0; j < n; ++j)
+      {
+        int l = static_cast<int>(std::ceil(g[j])), h = static_cast<int>(std::ceil(g[j + 1])) - 1;
+        if (l > h)
+          l = h = static_cast<int>(std::floor(0.5f * (g[j] + g[j + 1]) + 0.5f));
+        lo[j] = std::max(l, a);
+        hi[j] = std::min(h, b);
+      }
+      if (trial % 2 == 1)  // falling
+      {
+        std::reverse(lo.begin(), lo.end());
+        std::reverse(hi.begin(), hi.end());
+      }
+      std::vector<float> range(static_cast<std::size_t>(g[n]) + 40);
+      for (float& r : range)
+      {
+        const float x = unit(rng);
+        r = x < 0.05f ? std::nanf("") : (x < 0.15f ? kInf : 0.5f + 8.0f * unit(rng));
+      }
+      std::vector<float> start(n);
+      for (float& s : start)
+        s = unit(rng) < 0.3f ? kInf : 0.5f + 8.0f * unit(rng);
+      for (const bool count : {false, true})
+      {
+        std::vector<float> bins = start, want = start;
+        std::vector<std::int32_t> counts(n, 1), want_counts(n, 1);
+        detail::pullNearest(range.data(), lo.data(), hi.data(), n, bins.data(), count ? counts.data() : nullptr);
+        for (int j = 0; j < n; ++j)
+        {
+          float v = kInf;
+          for (int u = lo[j]; u <= hi[j]; ++u)
+          {
+            v = range[u] < v ? range[u] : v;
+            want_counts[j] += range[u] < kInf;
+          }
+          want[j] = v < want[j] ? v : want[j];
+        }
+        ASSERT_EQ(0, std::memcmp(bins.data(), want.data(), n * sizeof(float)))
+            << target << ", trial " << trial << ", counts " << count;
+        if (count)
+          ASSERT_EQ(counts, want_counts) << target << ", trial " << trial;
+        bins_checked += n;
+      }
+    }
+  });
+  EXPECT_GE(ran.size(), 2u);
+  EXPECT_GT(bins_checked, 20000 * static_cast<int>(ran.size()));
 }
