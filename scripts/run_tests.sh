@@ -96,20 +96,28 @@ bash scripts/cross_aarch64.sh >build/aarch64_run.log 2>&1 || arm_status=$?
 grep -E "^== times|SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_run.log | sort -u | head -20
 [ "$arm_status" -eq 0 ] || tail -40 build/aarch64_run.log
 
-# qemu's SVE is slow: only the tests that hold every target to the plain loops, on an emulated CPU with SVE and SVE2.
-echo "== the every-target gtests for aarch64 under qemu -cpu max (SVE2, SVE, NEON and scalar targets) =="
+# qemu's SVE is slow: only the tests that hold every target to the plain loops, on an emulated CPU with SVE and SVE2,
+# at three vector lengths: 512 bits (qemu's default), 256 and 128 (where Highway picks SVE2_128: Grace, Graviton4).
+echo "== the every-target gtests for aarch64 under qemu -cpu max (SVE2, SVE, NEON and scalar; 512, 256, 128 bits) =="
 sve_status=0
-rm -f build/aarch64/test_core_sve.xml
+rm -f build/aarch64/test_core_sve*.xml
 if [ "$arm_status" -eq 0 ]; then
-  bash scripts/cross_aarch64.sh --no-install --qemu-cpu max -- --gtest_filter='*EveryTarget*' \
-    --gtest_output=xml:build/aarch64/test_core_sve.xml >build/aarch64_sve.log 2>&1 || sve_status=$?
-  grep -E "SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_sve.log | sort -u | head -10
-  # A run that never reached SVE would pass on NEON alone.
-  if [ "$sve_status" -eq 0 ] && ! grep -q "SIMD targets run: sve2, sve, neon, scalar" build/aarch64_sve.log; then
-    echo "the SVE run did not run the SVE targets (build/aarch64_sve.log)"
-    sve_status=1
-  fi
-  [ "$sve_status" -eq 0 ] || tail -40 build/aarch64_sve.log
+  # qemu -cpu, the XML's name, the targets the run must have run (a run that never reached SVE would pass on NEON).
+  for run in "max sve sve2, sve, neon, scalar" \
+             "max,sve-default-vector-length=32 sve256 sve2, sve, neon, scalar" \
+             "max,sve-default-vector-length=16 sve128 sve2_128, sve2, sve, neon, scalar"; do
+    read -r cpu name targets <<<"$run"
+    status=0
+    bash scripts/cross_aarch64.sh --no-install --qemu-cpu "$cpu" -- --gtest_filter='*EveryTarget*:ScanPull*' \
+      --gtest_output=xml:build/aarch64/test_core_$name.xml >build/aarch64_$name.log 2>&1 || status=$?
+    echo "-- qemu -cpu $cpu:"
+    grep -E "SIMD targets run|tests from .* ran|PASSED|FAILED" build/aarch64_$name.log | sort -u | head -10
+    if [ "$status" -eq 0 ] && ! grep -q "SIMD targets run: $targets\$" build/aarch64_$name.log; then
+      echo "the run did not run the targets $targets (build/aarch64_$name.log)"
+      status=1
+    fi
+    [ "$status" -eq 0 ] || { tail -40 build/aarch64_$name.log; sve_status=1; }
+  done
 else
   echo "skipped: the aarch64 build above failed"
 fi
@@ -124,7 +132,8 @@ import xml.etree.ElementTree as ET
 counts = {"passed": 0, "failed": 0, "skipped": 0}
 totals = {"cpp": 0, "py": 0}
 sanitizers = ["build/asan_results.xml", "build/tsan_results.xml", "build/fuzz_results.xml", "build/aarch64/test_core.xml",
-              "build/aarch64/test_core_sve.xml"]
+              "build/aarch64/test_core_sve.xml", "build/aarch64/test_core_sve256.xml",
+              "build/aarch64/test_core_sve128.xml"]
 for path in glob.glob("build/cmake/test_results/**/*.xml", recursive=True) + sanitizers + ["build/pytest.xml"]:
     try:
         root = ET.parse(path).getroot()

@@ -10,8 +10,9 @@ namespace kinect_pipeline
 {
 /**
  * The targets the kernels are built for that this CPU can run, best first, by name: "avx512", "avx2", "sse4",
- * "scalar" on x86-64 ("sve2", "sve", "neon", "scalar" on aarch64). "scalar" runs everywhere: Highway's emulated
- * vectors in plain C++, at the architecture's baseline instruction set.
+ * "scalar" on x86-64 ("sve2_128" where the CPU's SVE2 vectors are 128 bits long, "sve2", "sve", "neon", "scalar"
+ * on aarch64). "scalar" runs everywhere: Highway's emulated vectors in plain C++, at the architecture's
+ * baseline instruction set.
  */
 std::vector<std::string> simdTargets();
 

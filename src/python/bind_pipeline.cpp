@@ -420,8 +420,8 @@ void bindTransforms(py::module_& m)
 void bindSimd(py::module_& m)
 {
   m.def("simd_targets", &simdTargets,
-        "The SIMD targets of the kernels this CPU can run, best first: avx512, avx2, sse4, scalar (aarch64: sve2, sve, "
-        "neon, scalar). Every one gives the same bits.");
+        "The SIMD targets of the kernels this CPU can run, best first: avx512, avx2, sse4, scalar (aarch64: "
+        "sve2_128 on CPUs of 128-bit SVE2 vectors, sve2, sve, neon, scalar). Every one gives the same bits.");
   m.def("simd_target", &simdTarget, "The SIMD target the kernels run now.");
   m.def("restrict_simd", &restrictSimd, py::arg("target"),
         "Restricts the kernels to one target for the whole process ('native': the best the CPU has). ValueError "

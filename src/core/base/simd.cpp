@@ -40,10 +40,12 @@ HWY_EXPORT(dispatchedTarget);
 
 namespace
 {
-// Our names of Highway's targets, best first. AVX3 is x86-64-v4's AVX-512 (F, BW, DQ, VL). The plain C++ one is
-// EMU128 (vectors of 16 bytes) or, under GCC before 12.3 (a GCC bug), SCALAR (vectors of one lane).
+// Our names of Highway's targets, best first. AVX3 is x86-64-v4's AVX-512 (F, BW, DQ, VL). SVE2_128 is SVE2 compiled
+// for 128-bit vectors, which Highway picks on CPUs of that length (Neoverse N2 and V2: NVIDIA Grace, Graviton4);
+// SVE2 and SVE take any length (SVE_256 is not built: cmake/highway.cmake). The plain C++ one is EMU128 (vectors of
+// 16 bytes) or, under GCC before 12.3 (a GCC bug), SCALAR (vectors of one lane).
 const std::pair<std::int64_t, const char*> kNames[] = {
-    {HWY_AVX3, "avx512"}, {HWY_AVX2, "avx2"}, {HWY_SSE4, "sse4"},     {HWY_SVE2, "sve2"},
+    {HWY_AVX3, "avx512"}, {HWY_AVX2, "avx2"}, {HWY_SSE4, "sse4"},     {HWY_SVE2_128, "sve2_128"}, {HWY_SVE2, "sve2"},
     {HWY_SVE, "sve"},     {HWY_NEON, "neon"}, {HWY_EMU128, "scalar"}, {HWY_SCALAR, "scalar"}};
 
 // The targets the core is built for that the CPU has, whatever the restriction.

@@ -35,7 +35,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--simd",
         default="native",
         help="SIMD target(s) of the kernels, comma-separated, measured side by side: native, avx512, avx2, sse4, "
-        "scalar (aarch64: neon, sve, sve2); the table names the one that ran (default: native)",
+        "scalar (aarch64: sve2_128 on CPUs of 128-bit SVE2 vectors, sve2, sve, neon); the table names the one "
+        "that ran (default: native)",
     )
     p.add_argument(
         "--reference",

@@ -127,12 +127,12 @@ void box3Row(const T* __restrict a, const T* __restrict b, const T* __restrict c
 // rows' worth at offsets of one pixel. Min and max (floats: in pick's operand order on x86, pick's compare and
 // select elsewhere, the same bits for NaN) and the order key are exact: the same bits as box3Row. The row ends
 // repeat their pixel (pick(x, x) = x), as box3Row's ends leave it out.
-// Highway 1.0 shifts across whole vectors only for 128-bit targets (CombineShiftRightBytes); AVX2 and AVX-512 take
-// two intrinsics each (on integer lanes: floats shift as their bits), and other targets (SVE, one-lane scalar)
-// box3Row.
+// Highway 1.0 shifts across whole vectors only for 128-bit targets (CombineShiftRightBytes; SVE2_128's is one EXT);
+// AVX2 and AVX-512 take two intrinsics each (on integer lanes: floats shift as their bits), and other targets (SVE
+// of any length, one-lane scalar) box3Row.
 #undef KP_BOX3_VECTORS  // this file is compiled once per target
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_NEON || \
-    HWY_TARGET == HWY_EMU128
+    HWY_TARGET == HWY_SVE2_128 || HWY_TARGET == HWY_EMU128
 #define KP_BOX3_VECTORS 1
 template <typename T, class V>
 HWY_INLINE V left1(V cur, V prev)  // [prev's last lane, cur's lanes but the last]: left neighbours
