@@ -67,6 +67,21 @@ def test_the_environment_variable_restricts_the_dispatch() -> None:
     assert _targets_ran(r.stdout) == ["scalar"], r.stdout
 
 
+@pytest.mark.parametrize("env", ["scalar", "mmx"])
+def test_the_bench_command_takes_the_environment_variable_unless_simd_is_given(env: str) -> None:
+    """`kinect-pipeline bench` passed --simd native whatever the variable said: it measured the CPU's best target
+    under KINECT_PIPELINE_SIMD=scalar, and a bad value went unnoticed."""
+    base = [sys.executable, "-m", "kinect_pipeline.cli", "bench", "--frames", "2", "--threads", "1"]
+    run = {"capture_output": True, "text": True, "timeout": 300, "env": {**os.environ, "KINECT_PIPELINE_SIMD": env}}
+    r = subprocess.run([*base, "--encodings", "16UC1"], **run)
+    if env == "mmx":
+        assert r.returncode == 2 and "KINECT_PIPELINE_SIMD" in r.stderr and "'mmx'" in r.stderr, r.stdout + r.stderr
+    else:
+        assert r.returncode == 0 and _targets_ran(r.stdout) == ["scalar"], r.stdout + r.stderr
+    r = subprocess.run([*base, "--encodings", "16UC1", "--simd", "native"], **run)  # the option wins
+    assert r.returncode == 0 and _targets_ran(r.stdout)[0].startswith("native ("), r.stdout + r.stderr
+
+
 @pytest.mark.parametrize("env", ["sse4", "mmx"])
 def test_an_explicit_restriction_wins_over_the_environment_variable(env: str) -> None:
     """The variable took effect at the first simd_target() or Pipeline(), and then undid a restrict_simd() made
