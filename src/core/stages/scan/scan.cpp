@@ -198,7 +198,7 @@ void pullByBins(const float* range, const std::int32_t* lo, const std::int32_t* 
   }
 }
 
-#if HWY_TARGET != HWY_SCALAR
+#if HWY_TARGET != HWY_SCALAR && HWY_TARGET != HWY_EMU128  // not the scalar target (either kind)
 // pullNearest N bins at a time where each holds one or two pixels (nearly all: a bin is about a pixel wide; else those
 // N bin by bin): their first and last pixels' ranges gathered, then nearestOf's two steps per lane.
 // On AVX2 and AVX-512 the gathers cost more than pullChunks' lookups (frames 15-25 % slower).
@@ -294,7 +294,7 @@ void pullChunks(const float* range, const std::int32_t* lo, const std::int32_t* 
       hn::StoreU(hn::Add(hn::LoadU(di, counts + j), add), di, counts + j);
     }
   };
-#if HWY_TARGET != HWY_SCALAR
+#if HWY_TARGET != HWY_SCALAR && HWY_TARGET != HWY_EMU128  // not the scalar target (either kind)
   if (N < 8)
     return pullPairs<kCount>(range, lo, hi, n, bins, counts);
 #endif
