@@ -346,13 +346,11 @@ RowCounts splitRow(const T* __restrict src, int w, const ValueSplit& s, std::uin
 
 // splitRow, with the SIMD kernel where vector is on.
 template <typename T>
-RowCounts splitRowFast(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
-                       std::uint8_t* cand, bool vector)
+void splitRowFast(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in, std::uint8_t* cand,
+                  bool vector, RowCounts& c)
 {
-  RowCounts c;
-  if (vector && splitRowSimd<T>(src, w, s, lab, dst, in, cand, c))
-    return c;
-  return splitRow<T>(src, w, s, lab, dst, in, cand);
+  if (!(vector && splitRowSimd<T>(src, w, s, lab, dst, in, cand, c)))
+    c = splitRow<T>(src, w, s, lab, dst, in, cand);
 }
 }  // namespace
 
@@ -394,7 +392,7 @@ bool ValueLabeller<T>::label(int r, const T* src, const T* in, int w, std::uint8
   // does not decrease.
   if (terms_.nondecreasing && split.t1 < Tr::kNoReturn)
     split.min_move = rescueMove(PlaneRule::moveBand(table[split.t1]), 1.0f / f_.rule.scale, Tr::kNoReturn);
-  c = splitRowFast<T>(src, w, split, lab, dst, in, buf.cand, vector_);
+  splitRowFast<T>(src, w, split, lab, dst, in, buf.cand, vector_, c);
   if (c.candidates > 0)
   {
     const int kept = c.kept, below = c.below(w);

@@ -101,9 +101,11 @@ HWY_INLINE void storeBytes(D d, V v, std::uint8_t* p)
 #endif
 }
 
+// The counts are written into c, not returned: the wrapper's copy of a returned RowCounts read it back in 32-byte
+// loads, which wait for the field-by-field stores to retire (a store-forwarding stall: frames 2-4 % slower).
 template <typename T, bool kRescue>
-RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in,
-                    std::uint8_t* cand)
+void splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* dst, const T* in, std::uint8_t* cand,
+               RowCounts& c)
 {
   using Tr = DepthTraits<T>;
   const hn::ScalableTag<T> d;
@@ -178,13 +180,12 @@ RowCounts splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab,
   if (u < w)  // the last L pixels again: the lanes before u are counted already
     block(w - L, std::false_type(), hn::Not(hn::FirstN(d, static_cast<std::size_t>(u - (w - L)))));
   flush();
-  RowCounts c = splitCounts(s, w, n1, n2, ni, nc);
+  c = splitCounts(s, w, n1, n2, ni, nc);
   c.kept_first = kept.first;
   const T t1v = static_cast<T>(s.t1);
   c.kept_last = kept.last(L, [&](int u) { return src[u] < t1v; });
   c.below_first = below.first;
   c.below_last = below.last(L, [&](int u) { return lab[u] == kBelowFloor; });
-  return c;
 }
 }  // namespace
 
@@ -194,7 +195,10 @@ bool splitRow(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* ds
 {
   if (w < static_cast<int>(hn::Lanes(hn::ScalableTag<T>())))
     return false;
-  c = in ? splitRowV<T, true>(src, w, s, lab, dst, in, cand) : splitRowV<T, false>(src, w, s, lab, dst, in, cand);
+  if (in)
+    splitRowV<T, true>(src, w, s, lab, dst, in, cand, c);
+  else
+    splitRowV<T, false>(src, w, s, lab, dst, in, cand, c);
   return true;
 }
 bool splitRow8(const std::uint8_t* src, int w, const ValueSplit& s, std::uint8_t* lab, std::uint8_t* dst,
