@@ -193,6 +193,37 @@ def test_bag_check_recovers_a_known_tf_error(
     assert plot.stat().st_size > 20000
 
 
+def test_bag_check_of_an_upside_down_camera_has_no_jump_at_180_deg(tmp_path: Path) -> None:
+    """A camera mounted upside down: tf's roll and the floor's lie either side of +-180 deg. The floor's median
+    roll is near 180 (not their plain median, about 0), and the plotted rolls are one run, not two lines a turn
+    apart; the disagreement is the wrapped difference."""
+    from kinect_pipeline.tools.calibrate import TfCheck, on_one_turn, plot_tf_check
+
+    deg = math.radians
+    frames = []
+    for i in range(6):
+        tf_roll = deg(179.8) if i % 3 else deg(-179.9)
+        floor_roll = deg(-179.7) if i % 2 else deg(179.9)  # three each side: their plain median is 0.1 deg
+        diff = kp._core.wrap_angle(tf_roll - floor_roll)
+        frames.append(
+            {"stamp": 10.0 + 0.1 * i, "found": True, "floor_height": 1.0, "floor_pitch": 0.2, "floor_roll": floor_roll}
+            | {"tf_height": 1.0, "tf_pitch": 0.2, "tf_roll": tf_roll}
+            | {"diff_height": 0.0, "diff_pitch": 0.0, "diff_roll": diff, "floor_fraction": 0.5}
+        )
+    check = TfCheck("x.bag", "/depth", frames)
+    s = check.summary()
+    assert abs(math.degrees(s["floor"]["roll"])) > 179.5, s["floor"]
+    assert abs(math.degrees(s["roll"]["median"])) < 1.0 and math.degrees(s["roll"]["max_abs"]) < 1.0, s["roll"]
+    v = check.series()["roll"]
+    for key in ("tf", "floor", "floor_all"):
+        assert np.ptp(v[key]) < deg(1.0), (key, np.degrees(v[key]))
+    assert np.allclose(v["tf"] - v["floor"], v["diff"]) and np.abs(v["diff"]).max() < deg(1.0)
+    assert on_one_turn([deg(179.0), deg(-179.0)]) == pytest.approx([deg(179.0), deg(181.0)])
+    assert on_one_turn([]) == []
+    plot_tf_check(check, tmp_path / "tf.png")
+    assert (tmp_path / "tf.png").stat().st_size > 10000
+
+
 def test_bag_check_text_and_bad_input(
     tf_bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

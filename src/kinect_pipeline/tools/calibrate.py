@@ -271,10 +271,17 @@ def calibrate(frames: list[tuple[str, np.ndarray]], camera: _core.Camera, **opti
 def pose_values(fits: list[dict[str, Any]], key: str) -> list[float]:
     """The fits' values of a pose term; rolls turned to lie within half a turn of the first fit's (an upside-down
     camera's lie either side of +-180 deg), so that their mean and spread are those of the angles."""
-    if key != "roll":
-        return [r[key] for r in fits]
-    ref = fits[0]["roll"]
-    return [ref + _core.wrap_angle(r["roll"] - ref) for r in fits]
+    values = [r[key] for r in fits]
+    return on_one_turn(values) if key == "roll" else values
+
+
+def on_one_turn(angles: list[float], ref: float | None = None) -> list[float]:
+    """The angles [rad], each turned by whole turns to lie within half a turn of ref (default: the first angle):
+    rolls either side of +-180 deg become one run of values, for means, medians and plotted lines."""
+    if not angles:
+        return []
+    ref = angles[0] if ref is None else ref
+    return [ref + _core.wrap_angle(a - ref) for a in angles]
 
 
 def upside_down(good: list[dict[str, Any]]) -> list[str]:
@@ -393,9 +400,7 @@ class TfCheck:
             "frames": len(self.frames),
             "frames_with_floor": len(floors),
             "frames_with_tf": sum("tf_height" in f for f in self.frames),
-            "floor": {q: float(np.median([f[f"floor_{q}"] for f in floors])) for q, _, _ in TF_QUANTITIES}
-            if floors
-            else None,
+            "floor": {q: self._median_of(floors, f"floor_{q}") for q, _, _ in TF_QUANTITIES} if floors else None,
         }
         for q, _, _ in TF_QUANTITIES:
             d = np.array([f[f"diff_{q}"] for f in good], float)
@@ -410,6 +415,39 @@ class TfCheck:
                 if len(d)
                 else None
             )
+        return out
+
+    @staticmethod
+    def _median_of(frames: list[dict[str, Any]], key: str) -> float:
+        """The median of a pose term over frames; rolls taken on one turn (an upside-down camera's straddle +-180)."""
+        values = [f[key] for f in frames]
+        if not key.endswith("roll"):
+            return float(np.median(values))
+        return _core.wrap_angle(float(np.median(on_one_turn(values))))
+
+    def series(self) -> dict[str, dict[str, np.ndarray]]:
+        """What plot_tf_check draws, per quantity [m, rad]: ``t``, ``tf``, ``floor`` at the frames with both (times
+        from the first frame), ``t_floor``, ``floor_all`` at every frame with a floor, and ``diff`` (tf - floor,
+        wrapped for the roll). Rolls on one turn, around tf's first (or the floor's): no jump at +-180 deg."""
+        good = [f for f in self.frames if f["found"] and "diff_height" in f]
+        floors = [f for f in self.frames if f["found"]]
+        t0 = self.frames[0]["stamp"]
+        out: dict[str, dict[str, np.ndarray]] = {}
+        for q, _, _ in TF_QUANTITIES:
+            tf_v = [f[f"tf_{q}"] for f in good]
+            fl_all = [f[f"floor_{q}"] for f in floors]
+            fl_v = [f[f"floor_{q}"] for f in good]
+            if q == "roll":
+                ref = (tf_v or fl_all or [0.0])[0]
+                tf_v, fl_v, fl_all = on_one_turn(tf_v, ref), on_one_turn(fl_v, ref), on_one_turn(fl_all, ref)
+            out[q] = {
+                "t": np.array([f["stamp"] - t0 for f in good]),
+                "tf": np.array(tf_v, float),
+                "floor": np.array(fl_v, float),
+                "t_floor": np.array([f["stamp"] - t0 for f in floors]),
+                "floor_all": np.array(fl_all, float),
+                "diff": np.array([f[f"diff_{q}"] for f in good], float),
+            }
         return out
 
     def as_dict(self) -> dict[str, Any]:
@@ -542,27 +580,17 @@ def plot_tf_check(check: TfCheck, path: Path) -> None:
 
     from ..outputs import save_figure
 
-    good = [f for f in check.frames if f["found"] and "diff_height" in f]
-    floors = [f for f in check.frames if f["found"]]
-    t0 = check.frames[0]["stamp"]
-    t = np.array([f["stamp"] - t0 for f in good])
+    series = check.series()
     fig, axes = plt.subplots(3, 2, figsize=(11, 7), sharex=True)
     for row, (q, unit, k) in enumerate(TF_QUANTITIES):
-        tf_v = np.array([f[f"tf_{q}"] for f in good]) * k
-        fl_v = np.array([f[f"floor_{q}"] for f in good]) * k
+        v = series[q]
         ax = axes[row, 0]
-        ax.plot(t, tf_v, "b.-", ms=3, label="tf (URDF + base pitch)")
-        ax.plot(
-            [f["stamp"] - t0 for f in floors],
-            [f[f"floor_{q}"] * k for f in floors],
-            "r.-",
-            ms=3,
-            label="floor seen in the frame",
-        )
+        ax.plot(v["t"], v["tf"] * k, "b.-", ms=3, label="tf (URDF + base pitch)")
+        ax.plot(v["t_floor"], v["floor_all"] * k, "r.-", ms=3, label="floor seen in the frame")
         ax.set_ylabel(f"{q} [{unit}]")
         ax.grid(True, color="0.85")
         ax = axes[row, 1]
-        ax.plot(t, tf_v - fl_v, "k.-", ms=3)
+        ax.plot(v["t"], v["diff"] * k, "k.-", ms=3)
         ax.axhline(0.0, color="0.5", lw=0.8)
         ax.set_ylabel(f"tf - floor [{unit}]")
         ax.grid(True, color="0.85")
