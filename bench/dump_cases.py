@@ -190,7 +190,7 @@ def load(d: Path) -> dict:
 def where(a: np.ndarray, b: np.ndarray) -> str:
     if a.shape != b.shape or a.dtype != b.dtype:
         return f"shape/dtype {a.shape} {a.dtype} vs {b.shape} {b.dtype}"
-    x, y = a.view(np.uint8).reshape(a.shape + (-1,)), b.view(np.uint8).reshape(b.shape + (-1,))
+    x, y = a.view(np.uint8).reshape((*a.shape, -1)), b.view(np.uint8).reshape((*b.shape, -1))
     diff = np.any(x != y, axis=-1)
     idx = np.argwhere(diff)
     first = tuple(int(i) for i in idx[0])

@@ -14,8 +14,8 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.mark.parametrize(
     "cmd",
     [
-        ["ruff", "check", "src/kinect_pipeline", "test/python"],
-        ["ruff", "format", "--check", "src/kinect_pipeline", "test/python"],
+        ["ruff", "check", "src/kinect_pipeline", "test/python", "bench"],
+        ["ruff", "format", "--check", "src/kinect_pipeline", "test/python", "bench"],
         ["mypy"],
     ],
     ids=["ruff-check", "ruff-format", "mypy"],
