@@ -1,5 +1,5 @@
 // The SIMD kernel of the labelling by value (stages/labels/split_row.h), compiled once per target: the compares
-// as masks, labels and flags built from them, counts per lane summed once per row. Design notes:
+// as masks, labels and flags built from them, counts by the masks' popcounts. Design notes:
 // docs/core_design.md ("SIMD kernels and their references").
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "stages/labels/split_row.cpp"
@@ -23,28 +23,6 @@ namespace HWY_NAMESPACE
 namespace hn = hwy::HWY_NAMESPACE;
 namespace
 {
-// The sum of a vector of per-lane counts.
-template <class D, class V>
-HWY_INLINE int total(D /* d */, V c)
-{
-#if HWY_TARGET == HWY_SCALAR
-  return static_cast<int>(hn::GetLane(c));
-#else
-  if constexpr (sizeof(hn::TFromD<D>) == 1)
-  {
-    const hn::Repartition<std::uint64_t, D> d64;
-    return static_cast<int>(hn::GetLane(hn::SumOfLanes(d64, hn::SumsOf8(c))));
-  }
-  else
-  {
-    const hn::Repartition<std::uint32_t, D> d32;
-    const auto w = hn::BitCast(d32, c);
-    const auto pairs = hn::Add(hn::ShiftRight<16>(w), hn::And(w, hn::Set(d32, 0xFFFFu)));
-    return static_cast<int>(hn::GetLane(hn::SumOfLanes(d32, pairs)));
-  }
-#endif
-}
-
 // Where pixels of one label first appear (their column) and last appear (the last block holding one: its column
 // is found from the row's data at the end). No mask is kept: SVE's masks cannot be members.
 struct Track
@@ -118,29 +96,19 @@ void splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* d
   const auto minvalid = set(Tr::kMinValid), move1 = set(s.min_move - 1);
   const auto l1 = set(s.l1), l2 = set(s.l2), linv = set(kInvalid), lkept = set(kKept), lbelow = set(kBelowFloor);
   const auto one = set(1);
-  // Counts per lane (subtracting a mask's all-ones adds one), summed per row and every 255 blocks (8-bit lanes).
-  auto c1 = hn::Zero(d), c2 = c1, ci = c1, cc = c1;
   int n1 = 0, n2 = 0, ni = 0, nc = 0;
-  const auto flush = [&]() {
-    n1 += total(d, c1);
-    n2 += total(d, c2);
-    ni += total(d, ci);
-    nc += total(d, cc);
-    c1 = c2 = ci = cc = hn::Zero(d);
-  };
   Track kept, below;
   // One block of L pixels from u (counted: the lanes not counted yet; all of them but in the last block).
   const auto block = [&](int u, auto whole, hn::Mask<D> counted) {
-    const auto count = [&](auto& c, hn::Mask<D> m) {
+    const auto count = [&](int& n, hn::Mask<D> m) {  // a popcount of the mask's bits
       if constexpr (!decltype(whole)::value)
         m = hn::And(m, counted);
-#if HWY_TARGET == HWY_AVX3
-      c = hn::IfThenElse(m, hn::Add(c, one), c);  // one masked add
-#else
-      c = hn::Sub(c, hn::VecFromMask(d, m));  // the mask is a vector of all-ones lanes
-#endif
+      n += static_cast<int>(hn::CountTrue(d, m));
     };
     const auto v = hn::LoadU(d, src + u);
+    // The raw row before the stores: a frame's 8-bit input, labels and cleaned image are alike in size and lie at one
+    // offset in their pages, and a load after a store to the same offset waits for it (4K aliasing).
+    const auto raw = kRescue ? hn::LoadU(d, in + u) : v;
     const auto g1 = atLeast(v, t1), g2 = atLeast(v, t2), inv = hn::Eq(v, vnone);
     if constexpr (sizeof(T) == 1)
       hn::StoreU(hn::IfThenElse(g1, vnone, v), d, dst + u);  // removed: 255
@@ -149,37 +117,28 @@ void splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* d
     // l1 from t1, + l2 from t2, no return kInvalid (it is >= t1 and >= t2).
     const auto l = hn::IfThenElse(inv, linv, hn::Add(hn::IfThenElseZero(g1, l1), hn::IfThenElseZero(g2, l2)));
     storeBytes(d, l, lab + u);
-    count(c1, g1);
-    count(c2, g2);
-    count(ci, inv);
+    count(n1, g1);
+    count(n2, g2);
+    count(ni, inv);
     const auto is_below = hn::Eq(l, lbelow);
     kept.add(d, hn::Not(g1), u);  // kept: below t1
     below.add(d, is_below, u);
     if constexpr (kRescue)
     {
-      auto raw = hn::LoadU(d, in + u);
-      raw = hn::IfThenElse(hn::Lt(raw, minvalid), vnone, raw);                   // DepthTraits::map
-      const auto above = hn::Gt(raw, hn::SaturatedAdd(v, move1));               // raw - v >= min_move
-      const auto inband = hn::AndNot(atLeast(raw, t2), atLeast(raw, rt1));  // rt1 <= raw < t2
+      const auto mapped = hn::IfThenElse(hn::Lt(raw, minvalid), vnone, raw);     // DepthTraits::map
+      const auto above = hn::Gt(mapped, hn::SaturatedAdd(v, move1));               // raw - v >= min_move
+      const auto inband = hn::AndNot(atLeast(mapped, t2), atLeast(mapped, rt1));  // rt1 <= raw < t2
       const auto f = hn::And(hn::Or(hn::Eq(l, lkept), is_below), hn::And(above, inband));
       storeBytes(d, hn::IfThenElseZero(f, one), cand + u);
-      count(cc, f);
+      count(nc, f);
     }
   };
-  int u = 0, blocks = 0;
+  int u = 0;
   const auto all = hn::FirstN(d, static_cast<std::size_t>(L));
   for (; u + L <= w; u += L)
-  {
     block(u, std::true_type(), all);
-    if (sizeof(T) == 1 && ++blocks == 255)
-    {
-      flush();
-      blocks = 0;
-    }
-  }
   if (u < w)  // the last L pixels again: the lanes before u are counted already
     block(w - L, std::false_type(), hn::Not(hn::FirstN(d, static_cast<std::size_t>(u - (w - L)))));
-  flush();
   c = splitCounts(s, w, n1, n2, ni, nc);
   c.kept_first = kept.first;
   const T t1v = static_cast<T>(s.t1);
