@@ -34,10 +34,6 @@ def run(cmd, **kw):
     return subprocess.run(cmd, check=True, **kw)
 
 
-def worktree(rev, where):
-    run(["git", "-C", ROOT, "worktree", "add", "--detach", "-f", where, rev], stdout=subprocess.DEVNULL)
-
-
 def give_old_bench_reference(src):
     """A bench without --reference: its Pipeline takes KP_REFERENCE's paths (all, or portable alone)."""
     path = os.path.join(src, "bench", "bench_core.cpp")
@@ -119,7 +115,7 @@ def reached(b, src):
 def measure(rev, roll):
     src = tempfile.mkdtemp(prefix="fpl-")
     os.rmdir(src)
-    worktree(rev, src)
+    run(["git", "-C", ROOT, "worktree", "add", "--detach", "-f", src, rev], stdout=subprocess.DEVNULL)
     try:
         old = give_old_bench_reference(src)
         b, bench = build(src)
