@@ -139,6 +139,10 @@ def main():
     ap.add_argument("--roll", type=float, default=0.0, help="the bench's --roll [rad] (revisions that have it)")
     ap.add_argument("--by-file", action="store_true", help="also the fast paths' lines of each file")
     a = ap.parse_args()
+    for rev in a.revs:
+        ok = subprocess.run(["git", "-C", ROOT, "rev-parse", "--verify", "-q", rev + "^{commit}"], capture_output=True)
+        if ok.returncode != 0:
+            sys.exit(f"fast_path_lines: revision '{rev}': expected a commit of {ROOT}")
     per_file = {}
     print("| revision | executable core lines | fast paths only | reference only | both | neither |")
     print("|---|---|---|---|---|---|")
