@@ -6,6 +6,7 @@ from __future__ import annotations
 import sys
 import time
 import unittest
+from xmlrpc.client import ServerProxy
 
 import numpy as np
 import rosbag
@@ -21,6 +22,18 @@ from kinect_pipeline.simulation.robot import Rig, SegwayMotion
 DEADLINE = 120.0
 
 
+def delivers(publisher: str, topic: str, subscriber: str) -> bool:
+    """Whether publisher sends topic to subscriber: a connection in publisher's bus info (getBusInfo), which roscpp
+    lists once the subscriber's header is taken; a message published before that is not sent to it."""
+    try:
+        uri = rosgraph.Master("/check_replay").lookupNode(publisher)
+        code, _, info = ServerProxy(uri).getBusInfo("/check_replay")
+    except (rosgraph.MasterError, OSError):
+        return False
+    # Each connection: [id, the other end, direction, transport, topic, connected, ...].
+    return code == 1 and any(c[1] == subscriber and c[2] == "o" and c[4] == topic and c[5] for c in info)
+
+
 class ReplayTest(unittest.TestCase):
     def test_every_frame_gives_a_scan(self) -> None:
         rospy.init_node("check_replay")
@@ -31,20 +44,18 @@ class ReplayTest(unittest.TestCase):
         stamps = set(images)
         self.assertGreater(len(stamps), 5)
         scans: list[LaserScan] = []
-        rospy.Subscriber("/kinect2/scan", LaserScan, scans.append, queue_size=1000)
+        scan_sub = rospy.Subscriber("/kinect2/scan", LaserScan, scans.append, queue_size=1000)
 
-        # Unpause only once the pipeline listens to the images and our subscription is registered.
-        master = rosgraph.Master("/check_replay")
+        # Unpause only once the player sends the images to the pipeline and our subscription takes its scans:
+        # connected, not only registered with the master (a frame sent before its connection is up is lost: CI once
+        # missed the first three scans).
         deadline = time.monotonic() + DEADLINE
         while time.monotonic() < deadline:
-            _, subs, _ = master.getSystemState()
-            subs = dict(subs)
-            if subscriber in subs.get("/kinect2/sd/image_depth", []) and \
-                    rospy.get_name() in subs.get("/kinect2/scan", []):
+            if scan_sub.get_num_connections() > 0 and delivers("/player", "/kinect2/sd/image_depth", subscriber):
                 break
             time.sleep(0.05)
         else:
-            self.fail("the pipeline never subscribed to /kinect2/sd/image_depth")
+            self.fail(f"the player never sent /kinect2/sd/image_depth to {subscriber}, or no scan connection came up")
         rospy.wait_for_service("/player/pause_playback", timeout=DEADLINE)
         rospy.ServiceProxy("/player/pause_playback", SetBool)(False)
 
