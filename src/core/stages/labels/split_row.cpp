@@ -111,8 +111,8 @@ void splitRowV(const T* src, int w, const ValueSplit& s, std::uint8_t* lab, T* d
       n += static_cast<int>(hn::CountTrue(d, m));
     };
     const auto v = hn::LoadU(d, src + u);
-    // The raw row before the stores: a frame's 8-bit input, labels and cleaned image are alike in size and lie at one
-    // offset in their pages, and a load after a store to the same offset waits for it (4K aliasing).
+    // The raw row before the stores: a frame's 8-bit input, labels and cleaned image are alike in size and may lie at
+    // one offset in their pages (they did in the bench), and a load after a store to that offset waits (4K aliasing).
     const auto raw = kRescue ? hn::LoadU(d, in + u) : v;
     const auto g1 = atLeast(v, t1), g2 = atLeast(v, t2), inv = hn::Eq(v, vnone);
     if constexpr (sizeof(T) == 1)
