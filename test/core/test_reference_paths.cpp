@@ -223,38 +223,41 @@ TEST(ReferencePaths, EachPipelineTakesItsOwnPaths)
 // With a floor profile (stages/floor_profile.h) the rule's floor offset varies with the ray: the labelling by value
 // takes each row's, the rule pixel by pixel each pixel's, the cliff binning each below-floor pixel's. A profile of
 // 5 cm of depth per metre (restored, not learned: floor_learn_time 0 keeps it) must give the same bits on the fast
-// and the plain paths, with and without roll (small ones: rows of a few lift steps, looked up by runs; 0.06 rad: rows
-// of more steps than the runs take), for every encoding, and other labels than no profile.
+// and the plain paths, with and without roll (small ones: rows of a few lift steps, looked up in a vector or by runs;
+// 0.06 rad: rows of more steps than the runs take), for every encoding, and other labels than no profile; on every
+// SIMD target.
 TEST(ReferencePaths, TheFloorProfileKeepsTheLabellingsBits)
 {
   const Camera cam = kinect();
   FloorFit::State state;
   for (int k = 0; k < FloorProfileBands::kBands; ++k)
     state.profile.bias[k] = (k % 2 ? -0.05f : 0.05f) * (k + 0.5f) * FloorProfileBands::kBandWidth;
-  for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
-    for (const char* scene : {"lab", "stair"})
-      for (const auto& [pitch, roll] : {std::pair{0.35, 0.0}, {0.35, 0.002}, {0.35, -0.02}, {0.35, 0.06}})
-      {
-        SCOPED_TRACE(cv::typeToString(type) + " " + scene + " roll " + std::to_string(roll));
-        Config cfg;
-        cfg.cliff_scan = true;
-        cfg.floor_learn_time = 0.0;
-        cfg.floor_profile_max = 0.1;
-        Pipeline fast(cam, cfg), plain(cam, cfg, {true, false, true});
-        fast.restoreFloorFit(state);
-        plain.restoreFloorFit(state);
-        cfg.floor_profile_max = 0.0;
-        Pipeline none(cam, cfg);
-        const cv::Mat frame = encodeDepth(metres(cam, scene, pitch, roll), type, cfg.max_depth);
-        FrameResult a, b, c;
-        fast.process(frame, SensorPose{1.1, pitch, roll}, a);
-        plain.process(frame, SensorPose{1.1, pitch, roll}, b);
-        none.process(frame, SensorPose{1.1, pitch, roll}, c);
-        EXPECT_TRUE(sameBits(a.labels, b.labels));
-        EXPECT_TRUE(sameBits(a.depth, b.depth));
-        EXPECT_TRUE(sameBits(a.scan.ranges, b.scan.ranges));
-        EXPECT_TRUE(sameBits(a.cliff.ranges, b.cliff.ranges));
-        EXPECT_EQ(a.floor_fit.profile.bias, state.profile.bias);
-        EXPECT_FALSE(sameBits(a.labels, c.labels)) << "the profile changed no label: the test would not reach it";
-      }
+  kp_test::forEachSimdTarget([&](const std::string& target) {
+    for (const int type : {CV_8UC1, CV_16UC1, CV_32FC1})
+      for (const char* scene : {"lab", "stair"})
+        for (const auto& [pitch, roll] : {std::pair{0.35, 0.0}, {0.35, 0.002}, {0.35, -0.02}, {0.35, 0.06}})
+        {
+          SCOPED_TRACE(target + " " + cv::typeToString(type) + " " + scene + " roll " + std::to_string(roll));
+          Config cfg;
+          cfg.cliff_scan = true;
+          cfg.floor_learn_time = 0.0;
+          cfg.floor_profile_max = 0.1;
+          Pipeline fast(cam, cfg), plain(cam, cfg, {true, false, true});
+          fast.restoreFloorFit(state);
+          plain.restoreFloorFit(state);
+          cfg.floor_profile_max = 0.0;
+          Pipeline none(cam, cfg);
+          const cv::Mat frame = encodeDepth(metres(cam, scene, pitch, roll), type, cfg.max_depth);
+          FrameResult a, b, c;
+          fast.process(frame, SensorPose{1.1, pitch, roll}, a);
+          plain.process(frame, SensorPose{1.1, pitch, roll}, b);
+          none.process(frame, SensorPose{1.1, pitch, roll}, c);
+          EXPECT_TRUE(sameBits(a.labels, b.labels));
+          EXPECT_TRUE(sameBits(a.depth, b.depth));
+          EXPECT_TRUE(sameBits(a.scan.ranges, b.scan.ranges));
+          EXPECT_TRUE(sameBits(a.cliff.ranges, b.cliff.ranges));
+          EXPECT_EQ(a.floor_fit.profile.bias, state.profile.bias);
+          EXPECT_FALSE(sameBits(a.labels, c.labels)) << "the profile changed no label: the test would not reach it";
+        }
+  });
 }

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <iostream>
 #include <limits>
 #include <random>
 #include <string>
@@ -142,8 +143,10 @@ TEST(ValueLabelling, GivesTheRulesLabelsWhereverItTakesARow)
 }
 
 // The per-pixel labeller's floor offsets under a floor profile (liftRow: steps, then a gather; liftRowByRuns: runs of
-// one step, bisected) are the rule's own, PlaneRule::floorAt, bit for bit: rows of every slope (roll either way),
-// rises from below the table to above 0. The runs decline a row of 16 steps or more (nothing written), take the others.
+// one step, bisected; liftRowByLookup: a lookup in a vector of the row's offsets, on every SIMD target) are the
+// rule's own, PlaneRule::floorAt, bit for bit: rows of every slope (roll either way), rises from below the table to
+// above 0, and column terms that are not straight (monotone still). The runs decline a row of 16 steps or more, the
+// lookup a row of as many steps as its vectors have float lanes or more (nothing written), and each takes the others.
 TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
 {
   std::vector<float> table(256);
@@ -151,28 +154,44 @@ TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
     table[i] = 0.001f * static_cast<float>((i * 37) % 41) - 0.02f;
   PlaneRule rule{0.001f, 1.1f, 1.0f, FloorLift{table.data(), -0.9f, 256 / 0.9f, 255}};
   const int w = 640;
-  std::vector<float> col(w), fh(w), runs(w);
+  std::vector<float> col(w), fh(w), runs(w), looked(w);
   std::vector<std::int32_t> steps(w);
-  int taken = 0, declined = 0;
-  for (const float slope : {-3e-4f, -7e-5f, -1e-5f, -1e-7f, 0.0f, 2e-5f, 5e-5f, 8e-5f, 4e-4f})
-    for (const float rise_row : {-1.2f, -0.9f, -0.6f, -0.3001f, -0.05f, 0.0f, 0.3f})
-    {
-      for (int u = 0; u < w; ++u)
-        col[u] = slope * static_cast<float>(u - w / 2);
-      liftRow(col.data(), rise_row, rule, w, steps.data(), fh.data());
-      std::fill(runs.begin(), runs.end(), -7.0f);
-      const bool by_runs = liftRowByRuns(col.data(), rise_row, rule, w, runs.data());
-      (by_runs ? taken : declined)++;
-      const int crossed = std::abs(rule.lift.step(col[w - 1] + rise_row) - rule.lift.step(col[0] + rise_row));
-      EXPECT_EQ(by_runs, crossed < 16) << "slope " << slope << ", rise_row " << rise_row;
-      for (int u = 0; u < w; ++u)
-      {
-        ASSERT_EQ(fh[u], rule.floorAt(col[u] + rise_row)) << "slope " << slope << ", rise_row " << rise_row << ", u " << u;
-        ASSERT_EQ(runs[u], by_runs ? fh[u] : -7.0f) << "slope " << slope << ", rise_row " << rise_row << ", u " << u;
-      }
-    }
-  EXPECT_GT(taken, 20);
-  EXPECT_GT(declined, 5);
+  kp_test::forEachSimdTarget([&](const std::string& target) {
+    int by_runs = 0, by_lookup = 0, rows = 0, narrow = 0;
+    for (const bool cubic : {false, true})
+      for (const float slope : {-3e-4f, -7e-5f, -1e-5f, -1e-7f, 0.0f, 2e-5f, 5e-5f, 8e-5f, 4e-4f})
+        for (const float rise_row : {-1.2f, -0.9f, -0.6f, -0.3001f, -0.05f, 0.0f, 0.3f})
+        {
+          for (int u = 0; u < w; ++u)
+          {
+            const float x = static_cast<float>(u - w / 2);
+            col[u] = cubic ? slope * x * x * x / static_cast<float>(w * w / 4) : slope * x;
+          }
+          SCOPED_TRACE(target + (cubic ? ", cubic, slope " : ", slope ") + std::to_string(slope) + ", rise_row " +
+                       std::to_string(rise_row));
+          liftRow(col.data(), rise_row, rule, w, steps.data(), fh.data());
+          std::fill(runs.begin(), runs.end(), -7.0f);
+          std::fill(looked.begin(), looked.end(), -7.0f);
+          const bool ran = liftRowByRuns(col.data(), rise_row, rule, w, runs.data());
+          const bool looked_up = liftRowByLookup(col.data(), rise_row, rule, w, looked.data());
+          const int crossed = std::abs(rule.lift.step(col[w - 1] + rise_row) - rule.lift.step(col[0] + rise_row));
+          EXPECT_EQ(ran, crossed < 16);
+          by_runs += ran, by_lookup += looked_up, ++rows, narrow += crossed < 4;
+          for (int u = 0; u < w; ++u)
+          {
+            ASSERT_EQ(fh[u], rule.floorAt(col[u] + rise_row)) << "u " << u;
+            ASSERT_EQ(runs[u], ran ? fh[u] : -7.0f) << "u " << u;
+            ASSERT_EQ(looked[u], looked_up ? fh[u] : -7.0f) << "u " << u;
+          }
+        }
+    EXPECT_GT(by_runs, rows / 3) << target;
+    EXPECT_LT(by_runs, rows) << target;
+    // Rows of up to 3 steps fit every target's vectors but the one-lane scalar target's.
+    EXPECT_GE(by_lookup, target == "scalar" ? 1 : narrow) << target;
+    EXPECT_LT(by_lookup, rows) << target;
+    std::cout << "[ info ] " << target << ": " << by_lookup << " of " << rows << " rows by lookup, " << by_runs
+              << " by runs\n";
+  });
 }
 
 namespace

@@ -33,6 +33,8 @@ struct PixelKernels
 {
   ByDepthType<PixelKernelsOf> types;
   void (*lift_steps)(const float* col, float rise_row, float lo, float inv_step, int last, int w, std::int32_t* k);
+  bool (*lift_lookup)(const float* col, float rise_row, float floor_h, const FloorLift& lift, int first, int spread,
+                      int w, float* fh);
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
@@ -121,6 +123,40 @@ void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_
   }
 }
 
+// liftRow()'s offsets of a row that reads fewer lift steps than a vector has lanes (first .. first + spread): the
+// steps in vectors (as liftSteps), then each pixel's offset from a vector of the row's offsets (a lookup within one
+// vector, no gather). @return false (nothing written) for more steps, or a row narrower than a vector.
+bool liftLookup(const float* __restrict col, float rise_row, float floor_h, const FloorLift& lift, int first,
+                int spread, int w, float* __restrict fh)
+{
+  namespace hn = hwy::HWY_NAMESPACE;
+  const hn::ScalableTag<float> df;
+  const hn::RebindToSigned<decltype(df)> di;
+  const int n = static_cast<int>(hn::Lanes(df));
+  if (spread >= n || w < n)
+    return false;
+  HWY_ALIGN float offsets[HWY_MAX_BYTES / sizeof(float)];
+  for (int i = 0; i < n; ++i)
+    offsets[i] = floor_h + lift.table[std::min(first + i, lift.last)];
+  const auto table = hn::Load(df, offsets);
+  const auto rise = hn::Set(df, rise_row), lo = hn::Set(df, lift.lo), inv_step = hn::Set(df, lift.inv_step);
+  const auto top = hn::Set(df, static_cast<float>(lift.last)), zero = hn::Zero(df);
+  const auto base = hn::Set(di, first);
+  const auto at = [&](int u) HWY_ATTR {
+    auto i = hn::Mul(hn::Sub(hn::Add(hn::LoadU(df, col + u), rise), lo), inv_step);  // FloorLift::step()
+    i = hn::IfThenElse(hn::Lt(i, top), i, top);
+    i = hn::IfThenElse(hn::Gt(i, zero), i, zero);
+    const auto k = hn::Sub(hn::ConvertTo(di, i), base);
+    hn::StoreU(hn::TableLookupLanes(table, hn::IndicesFromVec(df, k)), df, fh + u);
+  };
+  int u = 0;
+  for (; u + n <= w; u += n)
+    at(u);
+  if (u < w)  // the last n pixels again (the same values where they overlap)
+    at(w - n);
+  return true;
+}
+
 template <typename T>
 void thresholdRow(const T* __restrict src, const ThresholdLut& lut, float scale, int w, float* __restrict t)
 {
@@ -177,7 +213,7 @@ constexpr PixelKernelsOf<T> kernelsOf()
 }  // namespace
 
 const PixelKernels kPixelKernels = {{kernelsOf<std::uint8_t>(), kernelsOf<std::uint16_t>(), kernelsOf<float>()},
-                                    liftSteps};
+                                    liftSteps, liftLookup};
 const PixelKernels* pixelKernelTable() { return &kPixelKernels; }
 }  // namespace HWY_NAMESPACE
 }  // namespace detail
@@ -223,6 +259,12 @@ bool liftRowByRuns(const float* col, float rise_row, const PlaneRule& rule, int 
     u = end;
   }
   return true;
+}
+
+bool liftRowByLookup(const float* col, float rise_row, const PlaneRule& rule, int w, float* fh)
+{
+  const int a = rule.lift.step(col[0] + rise_row), b = rule.lift.step(col[w - 1] + rise_row);
+  return pixelKernels().lift_lookup(col, rise_row, rule.floor_h, rule.lift, std::min(a, b), std::abs(b - a), w, fh);
 }
 
 namespace
@@ -298,12 +340,14 @@ template <typename T>
 RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, int w, std::uint8_t* lab, T* dst,
                           float* t, float* fh, std::int32_t* steps, std::uint8_t* cand)
 {
-  rowThresholds(src, *f.lut, f.rule.scale, w, t, f.gather);
+  rowThresholds(src, *f.lut, f.rule.scale, w, t, f.vectors);
   PlaneRule rule = f.rule;
   RowCounts c;
   if (rule.lift.table && !oneFloorOffset(f, r, w, rule.floor_h))
   {
-    if (!(f.lift_by_runs && liftRowByRuns(f.col, f.row[r], f.rule, w, fh)))
+    const bool runs = f.lift_by_runs && ((f.vectors && liftRowByLookup(f.col, f.row[r], f.rule, w, fh)) ||
+                                         liftRowByRuns(f.col, f.row[r], f.rule, w, fh));
+    if (!runs)
       liftRow(f.col, f.row[r], f.rule, w, steps, fh);
     c = in ? classifyRow<T, true, true>(src, in, t, fh, f.col, f.row[r], rule, w, lab, dst, cand)
            : classifyRow<T, false, true>(src, nullptr, t, fh, f.col, f.row[r], rule, w, lab, dst, nullptr);

@@ -141,7 +141,9 @@ struct RuleTerms
   bool one_rise_per_row = false;  ///< PlaneModel::oneRisePerRow(): a row has one rise and one floor offset
   /// PlaneModel::monotoneColumns() and not ReferencePaths::labels: a floor profile's offsets by runs (liftRowByRuns())
   bool lift_by_runs = false;
-  bool gather = false;  ///< not ReferencePaths::portable: the pixels' thresholds by the gather kernel (else plain loop)
+  /// not ReferencePaths::portable: the pixels' thresholds by the gather kernel and a floor profile's offsets by the
+  /// lookup kernel (liftRowByLookup()), else their plain loops
+  bool vectors = false;
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
