@@ -345,9 +345,9 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
   RowCounts c;
   if (rule.lift.table && !oneFloorOffset(f, r, w, rule.floor_h))
   {
-    const bool runs = f.lift_by_runs && ((f.vectors && liftRowByLookup(f.col, f.row[r], f.rule, w, fh)) ||
-                                         liftRowByRuns(f.col, f.row[r], f.rule, w, fh));
-    if (!runs)
+    const bool few_steps = f.lift_by_runs && ((f.vectors && liftRowByLookup(f.col, f.row[r], f.rule, w, fh)) ||
+                                              liftRowByRuns(f.col, f.row[r], f.rule, w, fh));
+    if (!few_steps)
       liftRow(f.col, f.row[r], f.rule, w, steps, fh);
     c = in ? classifyRow<T, true, true>(src, in, t, fh, f.col, f.row[r], rule, w, lab, dst, cand)
            : classifyRow<T, false, true>(src, nullptr, t, fh, f.col, f.row[r], rule, w, lab, dst, nullptr);

@@ -139,7 +139,8 @@ struct RuleTerms
   const float* row;   ///< PlaneModel::rowTerm()
   const ThresholdLut* lut;
   bool one_rise_per_row = false;  ///< PlaneModel::oneRisePerRow(): a row has one rise and one floor offset
-  /// PlaneModel::monotoneColumns() and not ReferencePaths::labels: a floor profile's offsets by runs (liftRowByRuns())
+  /// PlaneModel::monotoneColumns() and not ReferencePaths::labels: a floor profile's offsets from the row's few steps
+  /// (liftRowByLookup(), liftRowByRuns())
   bool lift_by_runs = false;
   /// not ReferencePaths::portable: the pixels' thresholds by the gather kernel and a floor profile's offsets by the
   /// lookup kernel (liftRowByLookup()), else their plain loops
