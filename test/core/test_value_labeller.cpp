@@ -173,7 +173,7 @@ TEST(FloorLift, LiftRowIsFloorAtPixelByPixel)
           std::fill(runs.begin(), runs.end(), -7.0f);
           std::fill(looked.begin(), looked.end(), -7.0f);
           const bool ran = liftRowByRuns(col.data(), rise_row, rule, w, runs.data());
-          const bool looked_up = liftRowByLookup(col.data(), rise_row, rule, w, looked.data());
+          const bool looked_up = liftRowByLookup(col.data(), rise_row, rule, w, steps.data(), looked.data());
           const int crossed = std::abs(rule.lift.step(col[w - 1] + rise_row) - rule.lift.step(col[0] + rise_row));
           EXPECT_EQ(ran, crossed < 16);
           by_runs += ran, by_lookup += looked_up, ++rows, narrow += crossed < 4;

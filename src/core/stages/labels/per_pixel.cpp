@@ -34,7 +34,7 @@ struct PixelKernels
   ByDepthType<PixelKernelsOf> types;
   void (*lift_steps)(const float* col, float rise_row, float lo, float inv_step, int last, int w, std::int32_t* k);
   bool (*lift_lookup)(const float* col, float rise_row, float floor_h, const FloorLift& lift, int first, int spread,
-                      int w, float* fh);
+                      int w, std::int32_t* steps, float* fh);
 };
 }  // namespace detail
 }  // namespace kinect_pipeline
@@ -124,10 +124,10 @@ void liftSteps(const float* __restrict col, float rise_row, float lo, float inv_
 }
 
 // liftRow()'s offsets of a row that reads fewer lift steps than a vector has lanes (first .. first + spread): the
-// steps in vectors (as liftSteps), then each pixel's offset from a vector of the row's offsets (a lookup within one
+// steps (liftSteps, into steps), then each pixel's offset from a vector of the row's offsets (a lookup within one
 // vector, no gather). @return false (nothing written) for more steps, or a row narrower than a vector.
-bool liftLookup(const float* __restrict col, float rise_row, float floor_h, const FloorLift& lift, int first,
-                int spread, int w, float* __restrict fh)
+bool liftLookup(const float* col, float rise_row, float floor_h, const FloorLift& lift, int first, int spread, int w,
+                std::int32_t* __restrict steps, float* __restrict fh)
 {
   namespace hn = hwy::HWY_NAMESPACE;
   const hn::ScalableTag<float> df;
@@ -135,18 +135,14 @@ bool liftLookup(const float* __restrict col, float rise_row, float floor_h, cons
   const int n = static_cast<int>(hn::Lanes(df));
   if (spread >= n || w < n)
     return false;
+  liftSteps(col, rise_row, lift.lo, lift.inv_step, lift.last, w, steps);
   HWY_ALIGN float offsets[HWY_MAX_BYTES / sizeof(float)];
   for (int i = 0; i < n; ++i)
     offsets[i] = floor_h + lift.table[std::min(first + i, lift.last)];
   const auto table = hn::Load(df, offsets);
-  const auto rise = hn::Set(df, rise_row), lo = hn::Set(df, lift.lo), inv_step = hn::Set(df, lift.inv_step);
-  const auto top = hn::Set(df, static_cast<float>(lift.last)), zero = hn::Zero(df);
   const auto base = hn::Set(di, first);
   const auto at = [&](int u) HWY_ATTR {
-    auto i = hn::Mul(hn::Sub(hn::Add(hn::LoadU(df, col + u), rise), lo), inv_step);  // FloorLift::step()
-    i = hn::IfThenElse(hn::Lt(i, top), i, top);
-    i = hn::IfThenElse(hn::Gt(i, zero), i, zero);
-    const auto k = hn::Sub(hn::ConvertTo(di, i), base);
+    const auto k = hn::Sub(hn::LoadU(di, steps + u), base);
     hn::StoreU(hn::TableLookupLanes(table, hn::IndicesFromVec(df, k)), df, fh + u);
   };
   int u = 0;
@@ -261,10 +257,11 @@ bool liftRowByRuns(const float* col, float rise_row, const PlaneRule& rule, int 
   return true;
 }
 
-bool liftRowByLookup(const float* col, float rise_row, const PlaneRule& rule, int w, float* fh)
+bool liftRowByLookup(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh)
 {
   const int a = rule.lift.step(col[0] + rise_row), b = rule.lift.step(col[w - 1] + rise_row);
-  return pixelKernels().lift_lookup(col, rise_row, rule.floor_h, rule.lift, std::min(a, b), std::abs(b - a), w, fh);
+  return pixelKernels().lift_lookup(col, rise_row, rule.floor_h, rule.lift, std::min(a, b), std::abs(b - a), w, steps,
+                                    fh);
 }
 
 namespace
@@ -345,7 +342,7 @@ RowCounts labelRowByPixel(const RuleTerms& f, int r, const T* src, const T* in, 
   RowCounts c;
   if (rule.lift.table && !oneFloorOffset(f, r, w, rule.floor_h))
   {
-    const bool few_steps = f.lift_by_runs && ((f.vectors && liftRowByLookup(f.col, f.row[r], f.rule, w, fh)) ||
+    const bool few_steps = f.lift_by_runs && ((f.vectors && liftRowByLookup(f.col, f.row[r], f.rule, w, steps, fh)) ||
                                               liftRowByRuns(f.col, f.row[r], f.rule, w, fh));
     if (!few_steps)
       liftRow(f.col, f.row[r], f.rule, w, steps, fh);

@@ -56,10 +56,11 @@ bool liftRowByRuns(const float* col, float rise_row, const PlaneRule& rule, int 
 
 /**
  * liftRow()'s offsets, the same bits, for a column term monotone in u (as liftRowByRuns()) where the row reads fewer
- * lift steps than the SIMD target's vectors have float lanes (16 on AVX-512, 8 on AVX2): the steps in vectors, each
- * pixel's offset by a lookup in one vector of the row's offsets. @return false (nothing written) elsewhere
+ * lift steps than the SIMD target's vectors have float lanes (16 on AVX-512, 8 on AVX2): liftRow()'s steps, then
+ * each pixel's offset by a lookup in one vector of the row's offsets (no gather). @param steps scratch of w ints
+ * @return false (nothing written) elsewhere
  */
-bool liftRowByLookup(const float* col, float rise_row, const PlaneRule& rule, int w, float* fh);
+bool liftRowByLookup(const float* col, float rise_row, const PlaneRule& rule, int w, std::int32_t* steps, float* fh);
 
 /**
  * The rescue (PlaneRule::rescued) of the pixels of row r flagged in cand, a superset of those it relabels; updates
