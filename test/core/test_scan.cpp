@@ -30,6 +30,27 @@ TEST(FastAtan2, MatchesStdAtan2InAllQuadrants)
   EXPECT_EQ(fastAtan2(0.0f, 0.0f), 0.0f);
 }
 
+// The conversions towards zero that stand in for std::floor and std::ceil (binKey; the scalar target's crossings):
+// exact at integers, halves, the floats next to integers and either sign, across the columns' range and beyond.
+TEST(FloorToInt, IsStdFloorAndCeilOfEveryFiniteFloatTried)
+{
+  std::vector<float> xs = {0.0f, -0.0f, 0.5f, -0.5f, 1.0f, -1.0f, 2047.5f, -2.5f, 1e9f, -1e9f};
+  for (int i = -3000; i <= 3000; ++i)
+  {
+    const float f = static_cast<float>(i) / 4.0f;  // integers, quarters and halves
+    xs.insert(xs.end(), {f, std::nextafter(f, 1e30f), std::nextafter(f, -1e30f)});
+  }
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> any(-1e6f, 1e6f);
+  for (int i = 0; i < 100000; ++i)
+    xs.push_back(any(rng));
+  for (const float x : xs)
+  {
+    ASSERT_EQ(kinect_pipeline::floorToInt(x), static_cast<std::int32_t>(std::floor(x))) << x;
+    ASSERT_EQ(kinect_pipeline::ceilToInt(x), static_cast<std::int32_t>(std::ceil(x))) << x;
+  }
+}
+
 TEST(ScanProjector, ColumnBinsAreTheImageColumnsAtDefaults)
 {
   const Camera cam = Camera::fromFov(512, 424, 70.6 * M_PI / 180, 60 * M_PI / 180);

@@ -71,14 +71,28 @@ __attribute__((always_inline)) inline float rayBin(float xn, float ax, float ay,
 }
 
 /**
+ * floor(f) and ceil(f) of a finite f within the int32 range, exactly, from the conversion towards zero: branch-free
+ * and without a library call (the x86-64 baseline has no rounding instruction), so that the loops calling them
+ * vectorise on every target.
+ */
+__attribute__((always_inline)) inline std::int32_t floorToInt(float f)
+{
+  const std::int32_t t = static_cast<std::int32_t>(f);  // towards zero
+  return t - (f < static_cast<float>(t));
+}
+__attribute__((always_inline)) inline std::int32_t ceilToInt(float f)
+{
+  const std::int32_t t = static_cast<std::int32_t>(f);
+  return t + (f > static_cast<float>(t));
+}
+
+/**
  * The bin of a fractional bin position f: its exact floor (the gap fill splits at exact borders too), clamped to
  * the padding slots -1 and beams; NaN goes to -1. Branch-free, so that the loops calling it vectorise.
  */
 __attribute__((always_inline)) inline std::int32_t binKey(float f, float beams)
 {
-  f = !(f >= -1.0f) ? -1.0f : (f > beams ? beams : f);
-  const std::int32_t t = static_cast<std::int32_t>(f);  // towards zero
-  return t - (f < static_cast<float>(t));
+  return floorToInt(!(f >= -1.0f) ? -1.0f : (f > beams ? beams : f));
 }
 
 /**
