@@ -6,8 +6,12 @@
 // target in turn, side by side, in one run. --reference does the same for a Pipeline's fast paths
 // (ReferencePaths): what each one buys, measured beside the frame that takes them all.
 //
+// --roll likewise measures frames rendered and processed at each roll given (0 takes the labelling by value, any
+// other roll the rule pixel by pixel), side by side.
+//
 //   kinect_pipeline_bench [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...]
-//                         [--encodings 8UC1,...] [--simd native,avx2,...] [--reference none,labels,...] [--markdown]
+//                         [--encodings 8UC1,...] [--simd native,avx2,...] [--reference none,labels,...]
+//                         [--roll 0,0.0087,...] [--markdown]
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -109,7 +113,7 @@ struct Options
 {
   int frames = 300, kernel = 3;
   double surface_band = 0.0;
-  double roll = 0.0;  // the mount's roll [rad]: the frames are rendered and processed at it
+  std::vector<double> rolls = {0.0};  // the mount's rolls [rad]: frames are rendered and processed at each
   bool refine_floor = true, markdown = false;
   std::vector<int> thread_counts = {1, 2};
   std::string projection = "horizontal";
@@ -139,12 +143,12 @@ bool number(const char* text, double& out)
 }
 
 // The pipeline's settings of one row of the table.
-Config benchConfig(const Options& o, int threads)
+Config benchConfig(const Options& o, int threads, double roll)
 {
   Config cfg;
   cfg.sensor_height = kHeight;
   cfg.sensor_pitch = kPitch;
-  cfg.sensor_roll = o.roll;
+  cfg.sensor_roll = roll;
   cfg.open_kernel_size = o.kernel;
   cfg.projection = projectionFromString(o.projection);
   cfg.num_threads = threads;
@@ -160,7 +164,8 @@ bool checkOptions(const Options& o, const char* simd_option)
   const std::pair<const char*, bool> lists[] = {{"--encodings", o.types.empty()},
                                                 {"--threads", o.thread_counts.empty()},
                                                 {simd_option, o.simds.empty()},
-                                                {"--reference", o.references.empty()}};
+                                                {"--reference", o.references.empty()},
+                                                {"--roll", o.rolls.empty()}};
   for (const auto& [name, empty] : lists)
     if (empty)
     {
@@ -169,7 +174,8 @@ bool checkOptions(const Options& o, const char* simd_option)
     }
   try
   {
-    benchConfig(o, o.thread_counts.front()).validate();
+    for (const double roll : o.rolls)
+      benchConfig(o, o.thread_counts.front(), roll).validate();
   }
   catch (const std::invalid_argument& e)
   {
@@ -177,6 +183,30 @@ bool checkOptions(const Options& o, const char* simd_option)
     return false;
   }
   return true;
+}
+
+// The values of a comma-separated list option, each through parse(item, value); false (the item and what was
+// expected on stderr) at the first that does not parse. An empty list is checkOptions' to refuse.
+template <typename T, typename Parse>
+bool listOf(const char* option, const char* text, const char* expected, Parse parse, std::vector<T>& out)
+{
+  out.clear();
+  for (const std::string& item : commaList(text))
+  {
+    T v{};
+    if (!parse(item, v))
+    {
+      std::fprintf(stderr, "%s: '%s' is not %s\n", option, item.c_str(), expected);
+      return false;
+    }
+    out.push_back(v);
+  }
+  return true;
+}
+
+int encodingType(const std::string& e)
+{
+  return e == "8UC1" ? CV_8UC1 : e == "16UC1" ? CV_16UC1 : e == "32FC1" ? CV_32FC1 : -1;
 }
 
 // @return -1 to go on, else the exit status (after --help, or a bad option with its message on stderr).
@@ -215,27 +245,23 @@ int parseOptions(int argc, char** argv, Options& o)
         return 2;
       }
     }
-    else if (a == "--encodings" && value)
+    else if (a == "--encodings" && value)  // a subset of 8UC1,16UC1,32FC1 (profiling one encoding)
     {
-      // A comma-separated subset of 8UC1,16UC1,32FC1 (profiling one encoding).
-      o.types.clear();
-      for (const std::string& e : commaList(argv[++i]))
-      {
-        const int t = e == "8UC1" ? CV_8UC1 : e == "16UC1" ? CV_16UC1 : e == "32FC1" ? CV_32FC1 : -1;
-        if (t < 0)
-        {
-          std::fprintf(stderr, "--encodings: '%s' is not one of 8UC1, 16UC1, 32FC1\n", e.c_str());
-          return 2;
-        }
-        o.types.push_back(t);
-      }
+      const auto parse = [](const std::string& e, int& t) { return (t = encodingType(e)) >= 0; };
+      if (!listOf(a.c_str(), argv[++i], "one of 8UC1, 16UC1, 32FC1", parse, o.types))
+        return 2;
     }
-    else if ((a == "--surface-band" || a == "--roll") && value)
+    else if (a == "--roll" && value)  // numbers the Config's validation then checks (checkOptions)
     {
-      // Numbers the Config's validation then checks (checkOptions).
-      if (!number(argv[++i], a == "--roll" ? o.roll : o.surface_band))
+      const auto parse = [](const std::string& r, double& v) { return number(r.c_str(), v); };
+      if (!listOf(a.c_str(), argv[++i], "a number [rad]", parse, o.rolls))
+        return 2;
+    }
+    else if (a == "--surface-band" && value)
+    {
+      if (!number(argv[++i], o.surface_band))
       {
-        std::fprintf(stderr, "%s: '%s' is not a number%s\n", a.c_str(), argv[i], a == "--roll" ? " [rad]" : "");
+        std::fprintf(stderr, "--surface-band: '%s' is not a number\n", argv[i]);
         return 2;
       }
     }
@@ -260,27 +286,18 @@ int parseOptions(int argc, char** argv, Options& o)
           return 2;
         }
     }
-    else if (a == "--threads" && value)
+    else if (a == "--threads" && value)  // e.g. 1,2,4,8,16; the first is the speed-up's reference
     {
-      // A comma-separated list, e.g. 1,2,4,8,16; the first is the speed-up's reference.
-      o.thread_counts.clear();
-      for (const std::string& t : commaList(argv[++i]))
-      {
-        int n = 0;
-        if (!integerIn(t.c_str(), 1, 1024, n))
-        {
-          std::fprintf(stderr, "--threads: '%s' is not a thread count 1..1024\n", t.c_str());
-          return 2;
-        }
-        o.thread_counts.push_back(n);
-      }
+      const auto parse = [](const std::string& t, int& n) { return integerIn(t.c_str(), 1, 1024, n); };
+      if (!listOf(a.c_str(), argv[++i], "a thread count 1..1024", parse, o.thread_counts))
+        return 2;
     }
     else
     {
       std::fprintf(stderr, "usage: %s [--frames N] [--kernel K] [--projection horizontal|column] [--threads 1,2,...] "
                            "[--encodings 8UC1,16UC1,32FC1] [--simd native|avx512|avx2|sse4|scalar,...] "
                            "[--reference none|all|labels+binning+opening+portable,...] [--surface-band B] "
-                           "[--roll RAD] [--no-refine-floor] [--markdown]\n", argv[0]);
+                           "[--roll RAD,...] [--no-refine-floor] [--markdown]\n", argv[0]);
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -302,19 +319,20 @@ int parseOptions(int argc, char** argv, Options& o)
 struct Row
 {
   std::string enc, simd, reference;
+  double roll;
   int threads;
   double memcpy_ms, total, prepare, floor_fit, erode, classify, confidence;
   double allocs;
 };
 
 // One row of the table: `frames` frames of one encoding, thread count, SIMD target and set of reference paths.
-Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, int threads, const std::string& simd,
-            const std::string& reference)
+Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, double roll, int threads,
+            const std::string& simd, const std::string& reference)
 {
   restrictSimd(simd);
   ReferencePaths paths;
   parseReference(reference, paths);
-  Pipeline pipe(cam, benchConfig(o, threads), paths);
+  Pipeline pipe(cam, benchConfig(o, threads, roll), paths);
   FrameResult res;
   // Warm-up, with a pitch that changes every frame as on a Segway (the plane terms are recomputed).
   for (int i = 0; i < 30; ++i)
@@ -340,9 +358,22 @@ Row measure(const Options& o, const Camera& cam, const cv::Mat& frame, int threa
   }
   const int type = frame.type();
   const Encoding enc = type == CV_8UC1 ? Encoding::kMono8 : type == CV_16UC1 ? Encoding::kMono16 : Encoding::kFloat32;
-  return {toString(enc), simd == "native" ? "native (" + simdTarget() + ")" : simdTarget(), reference, threads,
+  return {toString(enc), simd == "native" ? "native (" + simdTarget() + ")" : simdTarget(), reference, roll, threads,
           median(tm), median(tt), median(tp), median(tff), median(te), median(tc), median(tf),
           static_cast<double>(allocs) / o.frames};
+}
+
+// "0, 0.0087" (the rolls in the title line).
+std::string rollList(const Options& o)
+{
+  std::string out;
+  char number[32];
+  for (const double roll : o.rolls)
+  {
+    std::snprintf(number, sizeof number, "%g", roll);
+    out += (out.empty() ? "" : ", ") + std::string(number);
+  }
+  return out;
 }
 
 void printTable(const Options& o, const std::vector<Row>& rows)
@@ -350,38 +381,43 @@ void printTable(const Options& o, const std::vector<Row>& rows)
   const std::string opening =
       o.kernel < 3 ? "no opening" : "opening " + std::to_string(o.kernel) + "x" + std::to_string(o.kernel) + " rect";
   std::printf("kinect_pipeline core benchmark: 512x424, %d frames each, %s, %s projection, surface_band %g, pitch "
-              "changing every frame, roll %g rad\n",
-              o.frames, opening.c_str(), o.projection.c_str(), o.surface_band, o.roll);
+              "changing every frame, roll %s rad\n",
+              o.frames, opening.c_str(), o.projection.c_str(), o.surface_band, rollList(o).c_str());
+  const bool roll_column = o.rolls.size() > 1;  // the roll of each row, where they differ
   if (o.markdown)
   {
-    std::printf("| encoding | simd | threads | reference paths | memcpy [ms] | prepare | (floor fit) | erode | "
+    std::printf("| encoding | simd | threads | reference paths |%s memcpy [ms] | prepare | (floor fit) | erode | "
                 "classify+scan | confidence | frame [ms] | frame / memcpy | floor fit / frame | speed-up vs 1 thread "
-                "| allocations / frame |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+                "| allocations / frame |\n", roll_column ? " roll [rad] |" : "");
+    std::printf("|---|---|---|---|%s---|---|---|---|---|---|---|---|---|---|---|\n", roll_column ? "---|" : "");
   }
   else
   {
-    std::printf("%-6s %-15s %3s %-14s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "simd", "thr", "reference",
-                "memcpy", "prepare", "floor fit", "erode", "classify", "conf", "frame", "x memcpy", "fit/frame",
-                "speedup", "allocs");
+    std::printf("%-6s %-15s %3s %-14s%s %9s %8s %9s %8s %9s %8s %9s %8s %9s %8s %7s\n", "enc", "simd", "thr",
+                "reference", roll_column ? "     roll" : "", "memcpy", "prepare", "floor fit", "erode", "classify",
+                "conf", "frame", "x memcpy", "fit/frame", "speedup", "allocs");
   }
-  // Rows run encoding by encoding, then thread count, target and reference paths: the speed-up is against the
-  // same encoding, target and paths at the first thread count.
-  const std::size_t per_threads = o.simds.size() * o.references.size(), per_enc = o.thread_counts.size() * per_threads;
+  // Rows run encoding by encoding, then roll, thread count, target and reference paths: the speed-up is against the
+  // same encoding, roll, target and paths at the first thread count.
+  const std::size_t per_threads = o.simds.size() * o.references.size(), per_roll = o.thread_counts.size() * per_threads;
   for (std::size_t i = 0; i < rows.size(); ++i)
   {
     const Row& r = rows[i];
-    const double speedup = rows[i - i % per_enc + i % per_threads].total / r.total;
+    const double speedup = rows[i - i % per_roll + i % per_threads].total / r.total;
+    char roll[32] = "";
+    if (roll_column)
+      std::snprintf(roll, sizeof roll, o.markdown ? " %g |" : " %8g", r.roll);
     if (o.markdown)
-      std::printf("| %s | %s | %d | %s | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | %.1f |\n",
-                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), r.memcpy_ms, r.prepare, r.floor_fit,
-                  r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total,
-                  speedup, r.allocs);
+      std::printf("| %s | %s | %d | %s |%s %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.4f | %.1f | %.1f %% | %.2f | "
+                  "%.1f |\n",
+                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), roll, r.memcpy_ms, r.prepare,
+                  r.floor_fit, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms,
+                  100.0 * r.floor_fit / r.total, speedup, r.allocs);
     else
-      std::printf("%-6s %-15s %3d %-14s %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n",
-                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), r.memcpy_ms, r.prepare, r.floor_fit,
-                  r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms, 100.0 * r.floor_fit / r.total,
-                  speedup, r.allocs);
+      std::printf("%-6s %-15s %3d %-14s%s %9.4f %8.4f %9.4f %8.4f %9.4f %8.4f %9.4f %8.1f %8.1f%% %8.2f %7.1f\n",
+                  r.enc.c_str(), r.simd.c_str(), r.threads, r.reference.c_str(), roll, r.memcpy_ms, r.prepare,
+                  r.floor_fit, r.erode, r.classify, r.confidence, r.total, r.total / r.memcpy_ms,
+                  100.0 * r.floor_fit / r.total, speedup, r.allocs);
   }
   std::printf("(times are medians in ms; 'x memcpy' = frame / memcpy of the same frame in the same run; the floor fit is "
               "part of prepare, and 'fit/frame' its share of the frame; 'reference': the fast paths replaced by their "
@@ -398,19 +434,24 @@ int main(int argc, char** argv)
   // beside the frames' OpenMP threads: the pipeline uses no OpenCV threads, and the bench renders on one.
   cv::setNumThreads(0);
   const Camera cam = Camera::fromFov(512, 424, 1.2322, 1.0472);
-  Rendering rendering;
-  renderScene(cam, kHeight, kPitch, o.roll, labScene(), rendering);
-  cv::Mat metres = rendering.depth.clone();
-  addKinectNoise(metres, 1);
+  std::vector<cv::Mat> metres;  // the scene at each roll, with the sensor's noise
+  for (const double roll : o.rolls)
+  {
+    Rendering rendering;
+    renderScene(cam, kHeight, kPitch, roll, labScene(), rendering);
+    metres.push_back(rendering.depth.clone());
+    addKinectNoise(metres.back(), 1);
+  }
   std::vector<Row> rows;
   for (const int type : o.types)
-  {
-    const cv::Mat frame = encodeDepth(metres, type, 12.0);
-    for (const int threads : o.thread_counts)
-      for (const std::string& simd : o.simds)
-        for (const std::string& reference : o.references)
-          rows.push_back(measure(o, cam, frame, threads, simd, reference));
-  }
+    for (std::size_t k = 0; k < o.rolls.size(); ++k)
+    {
+      const cv::Mat frame = encodeDepth(metres[k], type, 12.0);
+      for (const int threads : o.thread_counts)
+        for (const std::string& simd : o.simds)
+          for (const std::string& reference : o.references)
+            rows.push_back(measure(o, cam, frame, o.rolls[k], threads, simd, reference));
+    }
   printTable(o, rows);
   return 0;
 }

@@ -173,6 +173,21 @@ def test_the_bench_at_a_roll_renders_and_processes_its_frames_there_and_says_so(
     assert "pitch changing every frame, roll 0.001 rad" in r.stdout and re.search(r"^8UC1\s", r.stdout, re.M), r.stdout
 
 
+def test_the_bench_measures_each_roll_given_side_by_side_and_refuses_a_bad_one() -> None:
+    r = cli("bench", "--frames", "2", "--threads", "1", "--encodings", "8UC1", "--roll", "0,0.0087", "--markdown")
+    assert r.returncode == 0, r.stderr
+    assert "roll 0, 0.0087 rad" in r.stdout, r.stdout
+    lines = [line.split("|") for line in r.stdout.splitlines() if line.startswith("| ")]
+    header = [c.strip() for c in lines[0]]
+    rolls = [row[header.index("roll [rad]")].strip() for row in lines[1:]]
+    assert rolls == ["0", "0.0087"], r.stdout
+    frames = [float(row[header.index("frame [ms]")]) for row in lines[1:]]
+    assert all(f > 0 for f in frames), r.stdout
+    for bad, says in (("0,x", "--roll: 'x' is not a number [rad]"), ("0,7", "Config.sensor_roll = 7")):
+        r = cli("bench", "--frames", "2", "--threads", "1", "--encodings", "8UC1", "--roll", bad)
+        assert r.returncode == 2 and says in r.stderr and "8UC1" not in r.stdout, r.stdout + r.stderr
+
+
 def test_the_bench_without_an_opening_says_so() -> None:
     r = _bench("--kernel", "0")
     assert r.returncode == 0, r.stderr

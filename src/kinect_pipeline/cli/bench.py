@@ -21,10 +21,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--surface-band", type=float, default=0.0, help="the pipeline's surface_band [-]")
     p.add_argument(
         "--roll",
-        type=float,
-        default=0.0,
-        help="the mount's roll the frames are rendered and processed at [rad]: any roll but 0 or +-pi takes the "
-        "per-pixel labels, as a base's roll from an IMU does",
+        help="the mount's roll(s) the frames are rendered and processed at, comma-separated, measured side by side "
+        "(e.g. 0,0.0087) [rad]: any roll but 0 or +-pi takes the per-pixel labels, as a base's roll from an IMU "
+        "does (default: 0)",
     )
     p.add_argument(
         "--no-refine-floor",
@@ -68,8 +67,8 @@ def run(args: argparse.Namespace) -> int:
         cmd += ["--encodings", args.encodings]
     if args.surface_band:
         cmd += ["--surface-band", str(args.surface_band)]
-    if args.roll:
-        cmd += ["--roll", repr(args.roll)]
+    if args.roll is not None:  # an empty list too: the benchmark refuses it, naming the option
+        cmd += ["--roll", args.roll]
     if args.no_refine_floor:
         cmd.append("--no-refine-floor")
     if args.simd is not None:  # else the benchmark takes KINECT_PIPELINE_SIMD's target (and refuses a bad one)
