@@ -8,7 +8,7 @@ kernels' plain loops exist for speed too) and with ``ReferencePaths::all()``, an
 and the reference run does not exists for speed alone; the bench's lab scene, the same for every revision, decides
 what is reached, so a line neither reaches (another architecture's, a bad input's) is counted apart.
 
-    bench/fast_path_lines.py [--roll RAD] [--by-file] [REV ...]     (default: HEAD; e.g. a5cd7ea HEAD)
+    bench/fast_path_lines.py [--roll RAD] [--by-file] [--lines] [REV ...]     (default: HEAD; e.g. a5cd7ea HEAD)
 
 A bench from before ``--reference`` existed (a5cd7ea) is given it here: the worktree's copy builds its Pipeline with
 the paths ``KP_REFERENCE`` names (``all``, or ``portable`` alone). Takes a few minutes per revision (a Debug build).
@@ -133,11 +133,24 @@ def measure(rev, roll):
         shutil.rmtree(src, ignore_errors=True)
 
 
+def print_lines(rev, keys):
+    """Each fast-path line of revision rev, as file:line and the line's text at that revision."""
+    texts = {}
+    for path, number in keys:
+        if path not in texts:
+            show = subprocess.run(["git", "-C", ROOT, "show", f"{rev}:{path}"], capture_output=True, text=True)
+            texts[path] = show.stdout.splitlines()
+        text = texts[path][number - 1] if number <= len(texts[path]) else ""
+        print(f"{rev} {path}:{number}: {text}")
+    print(flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("revs", nargs="*", default=["HEAD"], help="revisions to count (default: HEAD)")
     ap.add_argument("--roll", type=float, default=0.0, help="the bench's --roll [rad] (revisions that have it)")
     ap.add_argument("--by-file", action="store_true", help="also the fast paths' lines of each file")
+    ap.add_argument("--lines", action="store_true", help="also each fast-path line itself (file:line and its text)")
     a = ap.parse_args()
     for rev in a.revs:
         ok = subprocess.run(["git", "-C", ROOT, "rev-parse", "--verify", "-q", rev + "^{commit}"], capture_output=True)
@@ -154,6 +167,8 @@ def main():
         print(f"| {rev} | {len(lines)} | {len(fast - ref)} | {len(ref - fast)} | {len(fast & ref)} | "
               f"{len(lines - fast - ref)} |", flush=True)  # fmt: skip
         per_file[rev] = collections.Counter(path for path, _ in fast - ref)
+        if a.lines:
+            print_lines(rev, sorted(fast - ref))
     if a.by_file:
         print("\n| file (fast paths' lines) | " + " | ".join(a.revs) + " |")
         print("|---|" + "---|" * len(a.revs))
