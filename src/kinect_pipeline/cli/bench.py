@@ -23,7 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--roll",
         help="the mount's roll(s) the frames are rendered and processed at, comma-separated, measured side by side "
         "(e.g. 0,0.0087) [rad]: any roll but 0 or +-pi takes the per-pixel labels, as a base's roll from an IMU "
-        "does (default: 0)",
+        "does; a list that starts with a negative roll takes '=' (--roll=-0.01,0) (default: 0)",
     )
     p.add_argument(
         "--no-refine-floor",
