@@ -118,6 +118,14 @@ class RosGraph(Processes):
 
         return rosgraph.Master("/first_day_test", master_uri=self.env["ROS_MASTER_URI"])
 
+    def has_service(self, service: str) -> bool:
+        """Whether the master knows the service (a node offers it)."""
+        try:
+            self.master().lookupService(service)
+            return True
+        except Exception:
+            return False
+
     def start_core(self, sim_time: bool = False) -> None:
         self.core = self.start("roscore", "roscore", "-p", str(self.port))
         wait_for("roscore", lambda: self._online(), timeout=60)

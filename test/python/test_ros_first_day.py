@@ -90,7 +90,7 @@ def start_manager(ros: RosGraph, name: str, ns: str | None = None) -> None:
     args = ["rosrun", "nodelet", "nodelet", "manager", f"__name:={name}"] + ([f"__ns:={ns}"] if ns else [])
     ros.start(f"manager_{name}", *args)
     full = f"{ns or ''}/{name}".replace("//", "/")
-    wait_for(f"manager {full}", lambda: _has_service(ros, full + "/load_nodelet"), timeout=60)
+    wait_for(f"manager {full}", lambda: ros.has_service(full + "/load_nodelet"), timeout=60)
 
 
 def node_log(ros: RosGraph) -> str:
@@ -120,14 +120,6 @@ def launch_exact(ros: RosGraph, tmp_path: Path, kind: str, *args: str) -> None:
         *args,
         *manager,
     )
-
-
-def _has_service(ros: RosGraph, service: str) -> bool:
-    try:
-        ros.master().lookupService(service)
-        return True
-    except Exception:
-        return False
 
 
 def exit_code(p: subprocess.Popen[bytes], timeout: float = 60.0) -> int:
@@ -622,7 +614,7 @@ def test_replay_launch_records_the_inputs_and_both_scans(ros: RosGraph, tmp_path
         )
 
     wait_for("the recorder and the node to subscribe", listening)
-    wait_for("the player", lambda: _has_service(ros, "/player/pause_playback"))
+    wait_for("the player", lambda: ros.has_service("/player/pause_playback"))
     subprocess.run(
         ["rosservice", "call", "/player/pause_playback", "data: false"],
         env=ros.env,

@@ -61,7 +61,7 @@ def _launch(ros: RosGraph, kind: str, transport: str, *args: str) -> subprocess.
     manager: list[str] = []
     if kind == "nodelet":
         ros.start("manager", "rosrun", "nodelet", "nodelet", "manager", "__name:=spot_manager")
-        wait_for("the manager", lambda: _has_service(ros, "/spot_manager/load_nodelet"))
+        wait_for("the manager", lambda: ros.has_service("/spot_manager/load_nodelet"))
         manager = ["manager:=spot_manager"]
     return ros.launch(
         "launch",
@@ -74,14 +74,6 @@ def _launch(ros: RosGraph, kind: str, transport: str, *args: str) -> subprocess.
         *manager,
         *args,
     )
-
-
-def _has_service(ros: RosGraph, service: str) -> bool:
-    try:
-        ros.master().lookupService(service)
-        return True
-    except Exception:
-        return False
 
 
 def _subscribed(ros: RosGraph, topic: str) -> bool:
