@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "kinect_pipeline/model/plane_model.h"
+#include "kinect_pipeline/model/pose.h"
 #include "test_util.h"
 
 using namespace kinect_pipeline;
@@ -55,6 +56,47 @@ INSTANTIATE_TEST_SUITE_P(Poses, ExactPlanes,
                                            std::make_tuple(0.26 + 0.1, 0.035), std::make_tuple(-0.2, -0.035),
                                            std::make_tuple(M_PI / 2, 0.0), std::make_tuple(-M_PI / 2, 0.0),
                                            std::make_tuple(0.8, 0.3)));
+
+// A level mount as tf gives it (a URDF's pitched camera_link, then the optical frame's fixed rotation) has a roll of
+// a few 1e-16 rad, not 0: it must keep the level paths (one rise per row), as an exact 0 does; a real roll not.
+TEST(PlaneModel, ARollLeftByComposingRotationsKeepsTheLevelPaths)
+{
+  const Camera cam = kinect();
+  Config cfg;
+  int rounded = 0;
+  for (double mount_pitch : {0.0, 0.1, 0.26, 0.2617993877991494, 0.35, 0.5, -0.2})
+    for (double base_pitch : {0.0, 0.01, -0.05})
+    {
+      RigidTransform base_from_link, link_from_optical;
+      base_from_link.q = quaternionFromRpy(0.0, base_pitch, 0.0);
+      RigidTransform link_from_camera;
+      link_from_camera.q = quaternionFromRpy(0.0, mount_pitch, 0.0);
+      link_from_camera.t = {0.2, 0.0, 1.0};
+      link_from_optical.q = quaternionFromRpy(-M_PI / 2, 0.0, -M_PI / 2);
+      double yaw = 0.0;
+      const SensorPose pose = poseFromOpticalTransform(base_from_link * link_from_camera * link_from_optical, 0.0, yaw);
+      ASSERT_LT(std::fabs(pose.roll), 1e-15) << mount_pitch << " " << base_pitch;
+      rounded += pose.roll != 0.0;
+      EXPECT_EQ(levelFromOptical(pose.pitch, pose.roll), levelFromOptical(pose.pitch, 0.0));
+      PlaneModel m;
+      ASSERT_TRUE(m.update(cam, cfg, pose.height, pose.pitch, pose.roll));
+      EXPECT_TRUE(m.oneRisePerRow()) << "pitch " << pose.pitch << " roll " << pose.roll;
+    }
+  EXPECT_GT(rounded, 0);  // the composition did leave rolls that are not 0
+  for (double roll : {kRollSnap, -kRollSnap, M_PI - 0.5 * kRollSnap, -M_PI + 1e-9, M_PI})
+  {
+    PlaneModel m;
+    ASSERT_TRUE(m.update(cam, cfg, 1.1, 0.26, roll));
+    EXPECT_TRUE(m.oneRisePerRow()) << "roll " << roll;
+    EXPECT_EQ(levelFromOptical(0.26, roll), levelFromOptical(0.26, std::fabs(roll) < 1.0 ? 0.0 : M_PI));
+  }
+  for (double roll : {2 * kRollSnap, -1e-5, 0.001, M_PI - 2 * kRollSnap, 2 * M_PI - 1e-9})
+  {
+    PlaneModel m;
+    ASSERT_TRUE(m.update(cam, cfg, 1.1, 0.26, roll));
+    EXPECT_FALSE(m.oneRisePerRow()) << "roll " << roll;
+  }
+}
 
 TEST(PlaneModel, StraightDownSeesFloorEverywhereAndNoCeiling)
 {

@@ -52,11 +52,20 @@ SensorPose poseFromOpticalTransform(const RigidTransform& base_from_optical, dou
 RigidTransform opticalFromLevel(const SensorPose& pose);
 
 /**
+ * Rolls within this of 0 or of +-pi [rad] count as exactly 0 or +-pi (levelFromOptical). A level mount's roll as tf
+ * composes it from a URDF (the optical frame's fixed rotation after the mount's pitch) is up to 3e-16 rad, not
+ * 0, and rotations kept in single precision leave about 1e-7; any roll that is not 0 or +-pi costs a frame the level
+ * paths (about twice the time). 1e-6 rad moves the floor by a micrometre per metre to the side, a thousandth of a
+ * 16-bit depth unit.
+ */
+constexpr double kRollSnap = 1e-6;
+
+/**
  * @brief The rotation of the sensor's optical frame (x right, y down, z forward) into the gravity-aligned frame at
  *        the sensor (x forward along the heading, y left, z up): the one place it is written out. The optical ray
  *        (xn, yn, 1) is (1, -xn, -yn) in the sensor's x-forward, z-up frame; then roll about x, then pitch about y
  *        (+ looks down): R = Ry(pitch) Rx(roll) S.
- * @param pitch [rad], + looks down; @param roll [rad], + right side down
+ * @param pitch [rad], + looks down; @param roll [rad], + right side down (within kRollSnap of 0 or +-pi: exactly that)
  * @return R row-major: a level-frame vector is R times the optical one; row 2 (R[6..8]) is "up" seen in the
  *         optical frame, column 2 (R[2], R[5], R[8]) the optical axis in the level frame
  */

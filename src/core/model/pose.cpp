@@ -141,11 +141,12 @@ RigidTransform opticalFromLevel(const SensorPose& pose)
 
 std::array<double, 9> levelFromOptical(double pitch, double roll)
 {
-  // Upside down (roll +-pi, the double nearest): sin exactly 0, as at roll 0, not 1.2e-16. The rows then have one
-  // rise each, and the frame takes the paths of a level mount (PlaneModel::oneRisePerRow, the scan's rows without roll).
-  const bool upside_down = std::fabs(roll) == kPi;
-  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = upside_down ? 0.0 : std::sin(roll),
-               cr = upside_down ? -1.0 : std::cos(roll);
+  // Level (roll within kRollSnap of 0) or upside down (of +-pi): sin exactly 0, not 1e-16, cos exactly 1 or -1. The
+  // rows then have one rise each, and the frame takes the paths of a level mount (PlaneModel::oneRisePerRow, the
+  // scan's rows without roll).
+  const bool level = std::fabs(roll) <= kRollSnap, upside_down = std::fabs(std::fabs(roll) - kPi) <= kRollSnap;
+  const double sp = std::sin(pitch), cp = std::cos(pitch), sr = level || upside_down ? 0.0 : std::sin(roll),
+               cr = level ? 1.0 : upside_down ? -1.0 : std::cos(roll);
   return {-sp * sr, -sp * cr, cp,  //
           -cr, sr, 0.0,            //
           -cp * sr, -cp * cr, -sp};
