@@ -52,6 +52,12 @@ struct FrameResult
   std::uint64_t speckles = 0;  ///< Config::speckle_jump: pixels taken as wrong matches (no measurement) before the opening
   SensorPose pose{0.0, 0.0, 0.0};  ///< the pose the frame was processed at (the prior, refined by the floor fit)
   FloorFitResult floor_fit;        ///< what the floor refinement decided (status kOff when refine_floor is false)
+  /**
+   * The pose had no roll (0 or +-pi, within kRollSnap): each row had one rise, so the frame took the level paths
+   * (8- and 16-bit rows labelled by value, the scan's level rows). Otherwise every pixel had its own rise: the roll
+   * paths, about twice the time of an 8- or 16-bit frame.
+   */
+  bool level_rows = false;
   StageTimes times;
 };
 

@@ -36,6 +36,7 @@ struct PyResult
   float angle_min, angle_max, angle_increment, range_min, range_max;
   py::dict counts, times;
   std::uint64_t speckles = 0;
+  bool level_rows = false;
   SensorPose pose{0.0, 0.0, 0.0};
   FloorFitResult floor_fit;
   FrameResult frame;  ///< the core's result for describe(): no pixels, its depth a header over `depth`'s
@@ -91,6 +92,7 @@ void toPython(FrameResult&& fr, PyResult& res)
   for (int k = 0; k < kNumLabels; ++k)
     res.counts[kLabelNames[k]] = fr.counts[k];
   res.speckles = fr.speckles;
+  res.level_rows = fr.level_rows;
   res.pose = fr.pose;
   res.floor_fit = fr.floor_fit;
   res.times["prepare"] = fr.times.prepare;
@@ -125,6 +127,7 @@ PyResult runFrame(PyPipeline& self, const py::object& depth, F&& call)
     fr.cliff = self.result.cliff;
     fr.counts = self.result.counts;
     fr.speckles = self.result.speckles;
+    fr.level_rows = self.result.level_rows;
     fr.times = self.result.times;
     fr.pose = self.result.pose;
     fr.floor_fit = self.result.floor_fit;
@@ -242,6 +245,9 @@ void bindResult(py::module_& m)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
       .def_readonly("speckles", &PyResult::speckles,
                     "speckle_jump: pixels taken as wrong matches (no measurement) before the opening")
+      .def_readonly("level_rows", &PyResult::level_rows,
+                    "the pose had no roll (0 or +-pi, within 1e-6 rad): the level paths; else the roll paths, about "
+                    "twice the time of an 8- or 16-bit frame")
       .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
       .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
       .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)")

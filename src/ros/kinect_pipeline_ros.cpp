@@ -707,6 +707,7 @@ void KinectPipelineRos::record(const SensorPose& prior, double ms)
   for (int k = 0; k < kNumLabels; ++k)
     label_totals_[k] += result_.counts[k];
   speckle_total_ += result_.speckles;
+  rolled_frames_ += result_.level_rows ? 0 : 1;
   last_fit_ = result_.floor_fit;
   ++floor_counts_[static_cast<int>(last_fit_.status)];
   last_prior_ = prior;

@@ -72,6 +72,49 @@ def test_result_has_the_promised_fields(cam: kp.Camera, dtype: type) -> None:
     assert res.range_min < res.range_max
 
 
+def _tf2_roll(mount_pitch: float, base_pitch: float) -> float:
+    """The roll of a level mount's optical frame as tf2 composes it: a pitched base, a pitched camera_link, the
+    optical frame's fixed rotation (as a URDF and robot_state_publisher give them)."""
+    import rospy
+    import tf2_py
+    from geometry_msgs.msg import TransformStamped
+
+    buf = tf2_py.BufferCore()
+    for parent, child, rpy in (
+        ("base_footprint", "base_link", (0.0, base_pitch, 0.0)),
+        ("base_link", "camera_link", (0.0, mount_pitch, 0.0)),
+        ("camera_link", "camera_depth_optical_frame", (-math.pi / 2, 0.0, -math.pi / 2)),
+    ):
+        t = TransformStamped()
+        t.header.frame_id, t.child_frame_id = parent, child
+        t.transform.translation.z = 0.5
+        q = t.transform.rotation
+        q.x, q.y, q.z, q.w = _core.quaternion_from_rpy(*rpy)
+        buf.set_transform_static(t, "test")
+    tr = buf.lookup_transform_core("base_footprint", "camera_depth_optical_frame", rospy.Time(0)).transform
+    q, p = tr.rotation, tr.translation
+    return _core.pose_from_optical_transform(((q.x, q.y, q.z, q.w), (p.x, p.y, p.z)))[2]
+
+
+def test_a_level_mount_through_tf_keeps_the_level_paths_and_a_roll_does_not(cam: kp.Camera) -> None:
+    rolls = [_tf2_roll(p, b) for p in (0.1, 0.26, 0.5) for b in (0.0, 0.01, -0.05)]
+    assert any(r != 0.0 for r in rolls), rolls  # tf2's rounding leaves a roll ...
+    assert all(abs(r) < 1e-12 for r in rolls), rolls  # ... that is no roll
+    depth = _core.render_scene(cam, HEIGHT, TILT, 0.0, boxes=[[1.5, 1.8, -0.3, 0.3, 0.0, 0.8]])["depth"]
+    mm = np.nan_to_num(depth * 1000.0, nan=0.0, posinf=0.0).astype(np.uint16)
+    pipe = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT))
+    level = pipe.process(mm, base_roll=0.0)
+    assert level.level_rows and level.counts["floor"] > 0 and level.counts["kept"] > 0
+    for r in rolls:
+        res = pipe.process(mm, base_roll=r)
+        assert res.level_rows, r
+        assert abs(res.pose.roll - r) < 1e-12  # reported as told (no roll added)
+        assert np.array_equal(res.labels, level.labels)
+    assert not pipe.process(mm, base_roll=0.001).level_rows
+    upside_down = kp.Pipeline(cam, kp.Config(sensor_height=HEIGHT, sensor_pitch=TILT, sensor_roll=math.pi - 1e-9))
+    assert upside_down.process(mm[::-1, ::-1].copy()).level_rows
+
+
 @pytest.mark.parametrize("geometry", ["exact", "thesis"])
 def test_noise_free_floor_with_boxes(cam: kp.Camera, geometry: str) -> None:
     """Exact mode removes every floor pixel, keeps every box pixel >= 5 cm above the floor, and the horizontal

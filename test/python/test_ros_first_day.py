@@ -463,6 +463,8 @@ def test_tf_stopping_holds_the_last_pose_then_falls_back_with_a_warning(
     warned = lines(node_log(ros), "differs from the last tf pose")
     assert len(warned) == 1 and "pitch by -14.90 deg" in warned[0], warned
     assert int(newest(res, PROC, "pose fallbacks: last good pose") or 0) > 0
+    # The level tf's quaternion reads back a roll of 7e-18 rad, the static pose 0: every frame ran the level paths.
+    assert newest(res, PROC, "frames with roll (pixel by pixel)") == "0"
     assert all(t["parent"] == "base_footprint" for t in res["tfs"])
     assert [t for t in res["tfs"] if t["stamp"] > last_tf + 1.2], "scan_frame no longer broadcast in the fallback"
 
@@ -544,8 +546,13 @@ def test_an_upside_down_camera_scans_as_the_core_does(ros: RosGraph, tmp_path: P
     )
     pose = f"{HEIGHT},{TILT},{math.pi}"
     tf = ["--tf", pose] if source == "tf" else []
-    until = "len(scans) >= 3" + (" and len(tfs) >= 3" if source == "static" else "")
+    until = "len(scans) >= 3 and num('frames out', 'processing') >= 3" + (
+        " and len(tfs) >= 3" if source == "static" else ""
+    )
     res = ros.feed("feed", "--noise-free", "--render", pose, *tf, "--until", until)
+    # Upside down runs the level mount's paths: no frame was labelled pixel by pixel.
+    assert int(newest(res, PROC, "frames out") or 0) >= 3
+    assert newest(res, PROC, "frames with roll (pixel by pixel)") == "0"
     upside_down = render_frame(CAM, boxes_scene(), HEIGHT, TILT, math.pi, "16UC1", seed=None).depth
     want = core_ranges(upside_down, TILT, sensor_roll=math.pi)
     assert len(res["scans"]) >= 3 and all(same(s, want) for s in res["scans"]), "a scan differs from the core's"

@@ -235,6 +235,7 @@ private:
   double last_ms_ = 0.0, max_ms_ = 0.0, sum_ms_ = 0.0, last_wait_ms_ = 0.0, max_wait_ms_ = 0.0;
   std::array<std::uint64_t, kNumLabels> label_totals_{};
   std::uint64_t speckle_total_ = 0;  // pixels taken as wrong matches (Config::speckle_jump)
+  std::uint64_t rolled_frames_ = 0;  // frames on the roll paths (FrameResult::level_rows false)
   // The floor refinement, as of the last frame.
   std::array<std::uint64_t, kNumFloorFitStatus> floor_counts_{};
   FloorFitResult last_fit_;

@@ -351,6 +351,7 @@ void Pipeline::process(const cv::Mat& input, const SensorPose& prior, FrameResul
   out.pose = floor_fit_.refine(depth, camera_, config_, lut_, wrapped, stamp, out.floor_fit);
   if (planes_.update(camera_, config_, out.pose.height, out.pose.pitch, out.pose.roll))
     projector_.setPose(out.pose.pitch, out.pose.roll);
+  out.level_rows = planes_.oneRisePerRow();
   if (config_.refine_floor && config_.floor_profile_max > 0.0)
   {
     floor_fit_.learnProfile(depth, config_, lut_, planes_, out.floor_fit);
