@@ -78,6 +78,18 @@ std::string describeTerms(const std::string& name, double h, double p, double r)
   return s.str();
 }
 
+/** Result.level_rows' docstring, with the core's tolerance (kRollSnap). */
+const std::string& levelRowsDoc()
+{
+  static const std::string doc = [] {
+    std::ostringstream s;
+    s << "the pose had no roll (0 or +-pi, within " << kRollSnap << " rad): the level paths; else the roll paths, "
+      << "about twice the time of an 8- or 16-bit frame";
+    return s.str();
+  }();
+  return doc;
+}
+
 /** The core's frame result as Python data (fresh arrays and dicts). */
 void toPython(FrameResult&& fr, PyResult& res)
 {
@@ -245,9 +257,7 @@ void bindResult(py::module_& m)
       .def_readonly("counts", &PyResult::counts, "pixels per label name")
       .def_readonly("speckles", &PyResult::speckles,
                     "speckle_jump: pixels taken as wrong matches (no measurement) before the opening")
-      .def_readonly("level_rows", &PyResult::level_rows,
-                    "the pose had no roll (0 or +-pi, within 1e-6 rad): the level paths; else the roll paths, about "
-                    "twice the time of an 8- or 16-bit frame")
+      .def_readonly("level_rows", &PyResult::level_rows, levelRowsDoc().c_str())
       .def_readonly("times", &PyResult::times, "wall-clock ms per stage")
       .def_readonly("pose", &PyResult::pose, "the SensorPose the frame was processed at (the refined prior)")
       .def_readonly("floor_fit", &PyResult::floor_fit, "what the floor refinement decided (FloorFit)")
