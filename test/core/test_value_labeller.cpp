@@ -216,10 +216,31 @@ int expectGatherIsPlainLoop(const std::vector<T>& row, const ThresholdLut& lut, 
 }
 }  // namespace
 
-// The pixels' thresholds by the CPU's gather (rowThresholds, gather on: 8 float lanes or more) are the plain loop's
-// on every SIMD target this CPU has: every 8-bit value, every 16-bit one, and float depths at and around every cell
-// border, beyond the table, negative, 0, NaN and the infinities (forDepth's clamps), in rows of whole vectors and not.
-TEST(Thresholds, TheGatherGivesThePlainLoopsBits)
+namespace
+{
+// A row of n values from 0 to top in runs that climb slowly (a vector's cells within its lanes: the window's
+// lookup) broken by jumps anywhere in 0..top (the gather), seeded.
+template <typename T>
+std::vector<T> runsAndJumps(std::size_t n, double top, unsigned seed)
+{
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> any(0.0, top), step(0.0, top / 2000.0);
+  std::vector<T> row(n);
+  double v = any(rng);
+  for (auto& x : row)
+  {
+    v = rng() % 23 == 0 ? any(rng) : std::min(top, v + step(rng));
+    x = static_cast<T>(v);
+  }
+  return row;
+}
+}  // namespace
+
+// The pixels' thresholds by the vector kernel (rowThresholds, gather on: 8 float lanes or more; a lookup within one
+// vector of the table or the CPU's gather) are the plain loop's on every SIMD target this CPU has: every 8-bit value,
+// every 16-bit one, float depths at and around every cell border, beyond the table, negative, 0, NaN and the
+// infinities (forDepth's clamps), and rows of slow runs and jumps, in rows of whole vectors and not.
+TEST(Thresholds, TheVectorKernelGivesThePlainLoopsBitsOnEveryTarget)
 {
   const float inf = std::numeric_limits<float>::infinity();
   std::vector<std::uint8_t> v8(256);
@@ -251,6 +272,13 @@ TEST(Thresholds, TheGatherGivesThePlainLoopsBits)
       bad += expectGatherIsPlainLoop(v16, l16, 0.001f, where + ", 16-bit");
       bad += expectGatherIsPlainLoop(vf, lf, 1.0f, where + ", float");
       bad += expectGatherIsPlainLoop(std::vector<float>(vf.begin(), vf.begin() + 13), lf, 1.0f, where + ", float");
+      for (const unsigned seed : {1u, 2u, 3u})
+      {
+        bad += expectGatherIsPlainLoop(runsAndJumps<std::uint8_t>(512, 255.0, seed), l8,
+                                       static_cast<float>(max_depth / 255.0), where + ", 8-bit runs");
+        bad += expectGatherIsPlainLoop(runsAndJumps<std::uint16_t>(517, 20000.0, seed), l16, 0.001f, where + ", 16-bit runs");
+        bad += expectGatherIsPlainLoop(runsAndJumps<float>(509, 20.0, seed), lf, 1.0f, where + ", float runs");
+      }
     }
   });
   EXPECT_EQ(bad, 0);
