@@ -14,8 +14,8 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.mark.parametrize(
     "cmd",
     [
-        ["ruff", "check", "src/kinect_pipeline", "test/python", "bench"],
-        ["ruff", "format", "--check", "src/kinect_pipeline", "test/python", "bench"],
+        ["ruff", "check", "src/kinect_pipeline", "test/python", "test/ros", "bench"],
+        ["ruff", "format", "--check", "src/kinect_pipeline", "test/python", "test/ros", "bench"],
         ["mypy"],
     ],
     ids=["ruff-check", "ruff-format", "mypy"],

@@ -80,7 +80,9 @@ class DriverTopics(unittest.TestCase):
         node = f"{self.prefix}/kinect_pipeline"
         curve = rospy.get_param(f"{node}/threshold_curve")
         want = self.curve or self.model["threshold_curve"]
-        self.assertEqual(kp.Config(threshold_curve=curve).threshold_curve, kp.Config(threshold_curve=want).threshold_curve)
+        self.assertEqual(
+            kp.Config(threshold_curve=curve).threshold_curve, kp.Config(threshold_curve=want).threshold_curve
+        )
         self.assertEqual(rospy.get_param(f"{node}/cliff_min_pixels"), self.model["cliff_min_pixels"])
 
 
