@@ -276,7 +276,8 @@ TEST(Thresholds, TheVectorKernelGivesThePlainLoopsBitsOnEveryTarget)
       {
         bad += expectGatherIsPlainLoop(runsAndJumps<std::uint8_t>(512, 255.0, seed), l8,
                                        static_cast<float>(max_depth / 255.0), where + ", 8-bit runs");
-        bad += expectGatherIsPlainLoop(runsAndJumps<std::uint16_t>(517, 20000.0, seed), l16, 0.001f, where + ", 16-bit runs");
+        bad += expectGatherIsPlainLoop(runsAndJumps<std::uint16_t>(517, 20000.0, seed), l16, 0.001f,
+                                       where + ", 16-bit runs");
         bad += expectGatherIsPlainLoop(runsAndJumps<float>(509, 20.0, seed), lf, 1.0f, where + ", float runs");
       }
     }

@@ -176,10 +176,10 @@ void thresholdGather(const T* __restrict src, const ThresholdLut& lut, float sca
   const hn::Rebind<std::int32_t, decltype(df)> di;
   const hn::Rebind<T, decltype(df)> dt;
   const int n = static_cast<int>(hn::Lanes(df));
-  const bool window = std::is_same_v<T, std::uint8_t> || (std::is_same_v<T, float> && n >= 16);
   const bool by_mm = std::is_same_v<T, std::uint16_t>;
   const float* table = by_mm ? lut.valueTable() : lut.table().data();
   const int size = by_mm ? 65536 : static_cast<int>(lut.table().size());
+  const bool window = (std::is_same_v<T, std::uint8_t> || (std::is_same_v<T, float> && n >= 16)) && size >= n;
   const auto cells = [&](int i) HWY_ATTR {
     if constexpr (std::is_same_v<T, float>)
     {
@@ -193,7 +193,7 @@ void thresholdGather(const T* __restrict src, const ThresholdLut& lut, float sca
       return hn::BitCast(di, hn::PromoteTo(hn::Rebind<std::uint32_t, decltype(df)>(), hn::LoadU(dt, src + i)));
   };
   int u = 0;
-  for (; n >= 8 && size >= n && u + n <= w; u += n)
+  for (; n >= 8 && u + n <= w; u += n)
   {
     const auto k = cells(u);
     const int base = window ? std::min(hn::GetLane(hn::MinOfLanes(di, k)), size - n) : 0;
