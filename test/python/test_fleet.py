@@ -42,7 +42,7 @@ from kinect_pipeline.tools.fleet import (
 from kinect_pipeline.tools.replay import ReplayOptions
 
 FRAMES = 6
-LONG = 40  #: frames of the recordings one of whose workers is killed: time to kill it while it works
+LONG = 80  #: frames of the recordings one of whose workers is killed: work still in hands when both are frozen
 
 
 def sha(path: Path) -> str:
@@ -283,6 +283,35 @@ def cluster(tmp_path: Path) -> Any:
         _stop(procs)
 
 
+def _next_event(
+    events: queue.Queue[dict[str, Any]], run: subprocess.Popen[str], deadline: float, tmp_path: Path
+) -> dict[str, Any]:
+    """The next fleet event, before the deadline and while the run goes on."""
+    while True:
+        assert time.monotonic() < deadline, "no recording caught at work within the deadline"
+        assert run.poll() is None, (tmp_path / "fleet.log").read_text()
+        try:
+            return events.get(timeout=1)
+        except queue.Empty:
+            continue
+
+
+def _collect(events: queue.Queue[dict[str, Any]], seen: list[dict[str, Any]], seconds: float) -> None:
+    """The events that arrive within seconds, appended to seen."""
+    end = time.monotonic() + seconds
+    while (left := end - time.monotonic()) > 0:
+        try:
+            seen.append(events.get(timeout=left))
+        except queue.Empty:
+            return
+
+
+def _in_flight(seen: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """An event of a recording its worker reported started (a frame or more) and not done, or None."""
+    last = {(ev["worker"], ev["recording"]): ev for ev in seen}
+    return next((ev for ev in last.values() if not ev["done"] and ev["frames"] >= 1), None)
+
+
 @pytest.fixture(scope="module")
 def longer(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
     d = tmp_path_factory.mktemp("fleet_long")
@@ -307,22 +336,30 @@ def test_real_scheduler_two_workers_one_killed_while_it_works(cluster: Any, long
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 120
-        busy = None
-        while busy is None:
-            assert time.monotonic() < deadline, "no task started within the deadline"
-            assert run.poll() is None, (tmp_path / "fleet.log").read_text()
-            try:
-                ev = events.get(timeout=1)
-            except queue.Empty:
-                continue
-            if not ev["done"] and ev["frames"] >= 1:
-                busy = ev
-        name = client.scheduler_info()["workers"][busy["worker"]]["name"]
-        victim = workers[name]
-        os.kill(victim.pid, signal.SIGKILL)  # its own PID, while it works on busy["recording"]
+        seen: list[dict[str, Any]] = []  # every event so far
+        while True:
+            seen.append(_next_event(events, run, deadline, tmp_path))
+            # Both workers frozen (their own PIDs): nothing more is sent or done. What they sent before the stop
+            # arrives within the grace; a recording a worker reported started and not done is then in its hands.
+            for w in workers.values():
+                os.kill(w.pid, signal.SIGSTOP)
+            _collect(events, seen, 0.5)
+            busy = _in_flight(seen)
+            if busy is not None:
+                break
+            for w in workers.values():
+                os.kill(w.pid, signal.SIGCONT)
+        victim = workers[client.scheduler_info()["workers"][busy["worker"]]["name"]]
+        os.kill(victim.pid, signal.SIGKILL)  # while it works on busy["recording"]
+        for w in workers.values():
+            if w is not victim:
+                os.kill(w.pid, signal.SIGCONT)
         assert victim.wait(timeout=30) == -signal.SIGKILL
         assert run.wait(timeout=240) == 0, (tmp_path / "fleet.log").read_text()
     finally:
+        for w in workers.values():
+            if w.poll() is None:
+                os.kill(w.pid, signal.SIGCONT)  # none left frozen for the fixture's SIGTERM
         if run.poll() is None:
             run.kill()
             run.wait(timeout=10)
