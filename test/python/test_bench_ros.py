@@ -33,13 +33,22 @@ def _their_processes() -> set[int]:
     return found
 
 
-def _run(*args: str) -> tuple[int, str]:
+def _run(tmp: Path, *args: str) -> tuple[int, str]:
+    """Runs the tool with its temporary folders under ``tmp``: it leaves no process running and, having ended well,
+    no work folder."""
     before = _their_processes()
     out = subprocess.run(
-        [sys.executable, "-m", "kinect_pipeline.cli", *args], capture_output=True, text=True, timeout=240
+        [sys.executable, "-m", "kinect_pipeline.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=240,
+        env=dict(os.environ, TMPDIR=str(tmp)),
     )
     left = _their_processes() - before
     assert not left, f"{args}: processes left running: {sorted(left)}"
+    if out.returncode == 0:
+        kept = sorted(p.name for p in tmp.glob("kp-bench-ros-*"))
+        assert not kept, f"{args}: work folders left behind: {kept}"
     return out.returncode, out.stdout + out.stderr
 
 
@@ -48,8 +57,8 @@ def _rows(text: str) -> dict[str, list[str]]:
 
 
 @pytest.mark.parametrize("sequential", [False, True], ids=["interleaved", "sequential"])
-def test_bench_ros_measures_relay_node_and_nodelet(sequential: bool) -> None:
-    rc, text = _run("bench-ros", "--frames", "15", *(["--sequential"] if sequential else []))
+def test_bench_ros_measures_relay_node_and_nodelet(sequential: bool, tmp_path: Path) -> None:
+    rc, text = _run(tmp_path, "bench-ros", "--frames", "15", *(["--sequential"] if sequential else []))
     assert rc == 0, text
     rows = _rows(text)
     assert set(rows) == {"image_transport relay", "kinect_pipeline node", "kinect_pipeline nodelet"}, text
@@ -60,8 +69,8 @@ def test_bench_ros_measures_relay_node_and_nodelet(sequential: bool) -> None:
     assert ("one subject after the other" in text) == sequential
 
 
-def test_soak_counts_every_frame_through_the_nodelet() -> None:
-    rc, text = _run("soak", "--minutes", "0.01", "--subject", "nodelet")  # 18 frames at 30 Hz
+def test_soak_counts_every_frame_through_the_nodelet(tmp_path: Path) -> None:
+    rc, text = _run(tmp_path, "soak", "--minutes", "0.01", "--subject", "nodelet")  # 18 frames at 30 Hz
     assert rc == 0, text
     rows = _rows(text)
     assert list(rows) == ["kinect_pipeline nodelet"], text

@@ -4,9 +4,11 @@ measured in the same run (its own roscore on loopback, processes stopped by thei
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import socket
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -139,6 +141,7 @@ def run(
         stderr=subprocess.DEVNULL,
         start_new_session=True,
     )
+    done = False
     try:
         _join_master(port)
         subjects = _subjects(work, threads, only)
@@ -152,9 +155,20 @@ def run(
                 results += bench.measure(frames, period)
             finally:
                 bench.stop()
+        done = True
         return results
     finally:
         _stop(core)
+        _clean_up(work, done)
+
+
+def _clean_up(work: Path, done: bool) -> None:
+    """Removes the run's work folder (ROS_HOME: the processes' logs, the parameters, roscore's PID file) after a run
+    that ended well; after one that did not, keeps it for its logs and says where."""
+    if done:
+        shutil.rmtree(work, ignore_errors=True)
+    else:
+        print(f"the run's logs (its ROS_HOME) are kept in {work}", file=sys.stderr)
 
 
 def _exit_on_sigterm(signum: int, _frame: Any) -> None:
