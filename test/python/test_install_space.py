@@ -23,14 +23,16 @@ INSTALL = _install_prefix() if (BUILD / "CMakeCache.txt").exists() else ROOT / "
 
 
 @pytest.fixture(scope="module")
-def install_env() -> dict[str, str]:
+def install_env(tmp_path_factory: pytest.TempPathFactory) -> dict[str, str]:
     if not (BUILD / "Makefile").exists():
         pytest.skip("no build/cmake: run scripts/quickstart.sh first")
     subprocess.run(
         ["cmake", "--build", str(BUILD), "--target", "install"], check=True, capture_output=True, timeout=600
     )
-    # A clean environment: only the install space, none of devel or the source tree.
-    clean = {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/root"), "ROS_HOME": "/tmp"}
+    # A clean environment: only the install space, none of devel or the source tree; ROS's logs and rospack's cache
+    # in a folder of the test's own.
+    ros_home = str(tmp_path_factory.mktemp("ros_home"))
+    clean = {"PATH": "/usr/bin:/bin", "HOME": os.environ.get("HOME", "/root"), "ROS_HOME": ros_home}
     out = subprocess.run(
         ["bash", "-c", f"set +u; . {INSTALL}/setup.sh && env -0"],
         env=clean,
