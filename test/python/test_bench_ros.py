@@ -96,3 +96,19 @@ def test_the_ros_tests_name_and_stop_a_node_that_outlives_its_roslaunch(tmp_path
     with pytest.raises(AssertionError, match=r"processes left running after the test: .*kinect_pipeline_node"):
         g.stop_all()
     assert not g.leftovers(), "what was left is stopped"
+
+
+def test_a_run_that_did_not_end_well_keeps_its_logs_and_says_where(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """What run() does with its work folder at its end: removed after a run that ended well; kept, its path on
+    stderr, after one that did not (its logs say what went wrong)."""
+    from kinect_pipeline.tools.bench_ros import _clean_up
+
+    work = tmp_path / "kp-bench-ros-x"
+    (work / "log").mkdir(parents=True)
+    _clean_up(work, done=False)
+    assert (work / "log").is_dir()
+    assert str(work) in capsys.readouterr().err
+    _clean_up(work, done=True)
+    assert not work.exists()
